@@ -1,0 +1,32 @@
+# Two entry points, each creating the virtual environment (.venv) when it is missing:
+#   make run    executes the notebooks at a small preset into build/ (notebooks + HTML)
+#   make test   runs the unit tests and the notebooks (nbval)
+PYTHON ?= python3
+VENV   ?= .venv
+PRESET ?= quick
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed-stamp
+# torch is pinned where the environment is created: 2.13.0 is a CPU build on the project's
+# machines; an unpinned torch would pull a multi-GB CUDA build. The package accepts any recent torch.
+TORCH  ?= torch==2.13.0
+
+.PHONY: run test clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet "$(TORCH)"
+	$(PY) -m pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+run: $(STAMP)
+	mkdir -p build/notebooks build/html
+	OPNET_PRESET=$(PRESET) $(PY) -m jupyter nbconvert --to notebook --execute notebooks/[0-9]*.ipynb --output-dir build/notebooks
+	$(PY) -m jupyter nbconvert --to html build/notebooks/*.ipynb --output-dir build/html
+	@echo "executed notebooks: build/notebooks/  HTML: build/html/"
+
+test: $(STAMP)
+	OPNET_PRESET=quick $(PY) -m pytest
+
+clean:
+	rm -rf build $(VENV)

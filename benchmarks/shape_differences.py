@@ -1,0 +1,485 @@
+"""Benchmark: shape-difference operators, fast path vs the explicit formula (and pyFM).
+
+Measures, side by side and in one run, on the ~1000-vertex toy capsule
+(``opnet.data.toy.capsule("default")``; the vertex count is printed) and a batch of smoothly bent and
+inflated copies of it (``toy.bend`` / ``toy.bulge`` with random parameters from a seeded
+``numpy.random.Generator``), for a base eigenbasis of ``k = 60`` functions:
+
+1. the fast path ``opnet.shape_differences(base_basis, vertices, kinds=...)`` — shapes per
+   second for the three operators together and for each one alone (best of 3 repeats,
+   after a warm-up call);
+2. the explicit formula as the authors' code evaluates it: for each target its full dense
+   eigendecomposition (``opnet.eigenbasis(target, n)``), ``opnet.identity_fmap`` and then
+   ``opnet.shape_difference(base_basis, target, kind, fmap=fmap)`` — seconds per shape on
+   a few shapes;
+3. the speed-up (explicit s/shape ÷ method s/shape, same operators) and the largest
+   relative difference ``‖D_method − D_explicit‖_F / ‖D_explicit‖_F`` over the shapes
+   timed by the explicit formula;
+4. if pyFM (PyPI ``pyfmaps``) is importable, its ``area_SD`` / ``conformal_SD`` on the same
+   functional maps and eigenvalues (the maps and eigendecompositions are given to it, so
+   those rows time the last step only; one more row adds the measured cost of the
+   eigendecomposition and functional map).
+
+Prints a Markdown table, machine information and whether the project's targets are met
+(fast path ≥ 100× faster than the explicit formula and ≥ 200 shapes/s for all three
+operators together). ``--json PATH`` also writes everything as JSON. If the throughput
+target is missed (or with ``--profile``) the fast path is profiled with cProfile.
+
+Run::
+
+    .venv/bin/python benchmarks/shape_differences.py            # full run (~1 min on 2 cores)
+    .venv/bin/python benchmarks/shape_differences.py --quick    # smoke run (< 30 s)
+    .venv/bin/python benchmarks/shape_differences.py --json results.json --profile
+"""
+from __future__ import annotations
+
+import argparse
+import cProfile
+import io
+import json
+import os
+import platform
+import pstats
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy
+
+import opnet
+from opnet.data import toy
+
+KINDS = ("area", "conformal", "extrinsic")
+TARGET_SPEEDUP = 100.0
+TARGET_THROUGHPUT = 200.0  # shapes/s, all three operators together
+
+
+# ---- data -------------------------------------------------------------------------------------------
+
+def make_shapes(base: opnet.Mesh, n: int, seed: int) -> np.ndarray:
+    """``n`` smooth deformations ``(n, n_vertices, 3)`` of ``base``: a random bulge, then a random bend.
+
+    Only the amount/position parameters are drawn (widths keep ``toy``'s defaults), from a
+    seeded ``numpy.random.Generator``, so the same seed gives the same shapes.
+    """
+    rng = np.random.default_rng(seed)
+    z = base.vertices[:, 2]
+    lo, hi = z.min(), z.max()
+    out = np.empty((n, *base.vertices.shape))
+    for i in range(n):
+        v = toy.bulge(base.vertices, amount=rng.uniform(-0.2, 0.4), center=lo + (hi - lo) * rng.uniform(0.2, 0.8))
+        v = toy.bend(v, angle=rng.uniform(-np.pi / 2, np.pi / 2), joint=lo + (hi - lo) * rng.uniform(0.3, 0.7))
+        out[i] = v
+    return out
+
+
+# ---- timing helpers -----------------------------------------------------------------------------------
+
+def best_of(fn, repeats: int) -> float:
+    """Best wall time of ``repeats`` calls of ``fn`` (after the caller's warm-up)."""
+    best = np.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def rel_diff(a: np.ndarray, b: np.ndarray) -> float:
+    """``‖a − b‖_F / ‖b‖_F`` over the last two axes, maximised over the leading ones."""
+    num = np.linalg.norm(a - b, axis=(-2, -1))
+    den = np.linalg.norm(b, axis=(-2, -1))
+    return float(np.max(num / den))
+
+
+def time_fast(base_basis, shapes, kinds, repeats, batch_size):
+    run = lambda: opnet.shape_differences(base_basis, shapes, kinds=kinds, batch_size=batch_size, progress=False)
+    opnet.shape_differences(base_basis, shapes[:batch_size], kinds=kinds, batch_size=batch_size, progress=False)  # warm-up
+    return best_of(run, repeats) / len(shapes)
+
+
+def explicit_one(base_basis, mesh, timings):
+    """Explicit shape differences ``(3, k, k)`` of one target; adds stage times to ``timings``."""
+    t0 = time.perf_counter()
+    tb = opnet.eigenbasis(mesh, mesh.n_vertices)  # full, dense
+    t1 = time.perf_counter()
+    fmap = opnet.identity_fmap(base_basis, tb)
+    t2 = time.perf_counter()
+    timings["eigendecomposition"] += t1 - t0
+    timings["fmap"] += t2 - t1
+    D = []
+    for kind in KINDS:
+        t = time.perf_counter()
+        D.append(opnet.shape_difference(base_basis, mesh, kind, fmap=fmap))
+        timings[kind] += time.perf_counter() - t
+    return np.stack(D), fmap
+
+
+def time_explicit(base_basis, base, shapes):
+    stages = dict.fromkeys(("eigendecomposition", "fmap", *KINDS), 0.0)
+    explicit_one(base_basis, base.with_vertices(shapes[-1]), dict(stages))  # warm-up (result discarded)
+    meshes = [base.with_vertices(v) for v in shapes]
+    Ds, fmaps = [], []
+    t = time.perf_counter()
+    for m in meshes:
+        D, fmap = explicit_one(base_basis, m, stages)
+        Ds.append(D)
+        fmaps.append(fmap)
+    total = time.perf_counter() - t
+    n = len(shapes)
+    return np.stack(Ds), fmaps, total / n, {k: v / n for k, v in stages.items()}
+
+
+# ---- pyFM -----------------------------------------------------------------------------------------------
+
+def import_pyfm():
+    """pyFM's ``(area_SD, conformal_SD, version)``, or ``None`` and a note why not."""
+    try:
+        import pyFM  # noqa: F401
+    except Exception as exc:  # not installed, or broken install
+        return None, f"pyFM not importable ({type(exc).__name__}: {exc}); install with `pip install pyfmaps`."
+    try:
+        from pyFM.spectral import area_SD, conformal_SD
+    except Exception:
+        try:
+            from pyFM.spectral.shape_difference import area_SD, conformal_SD
+        except Exception as exc:
+            return None, f"pyFM is installed but has no area_SD/conformal_SD ({exc})."
+    try:
+        from importlib.metadata import version
+
+        ver = version("pyfmaps")
+    except Exception:
+        ver = getattr(sys.modules["pyFM"], "__version__", "unknown")
+    return (area_SD, conformal_SD, ver), None
+
+
+def time_pyfm(fns, base_basis, fmaps, inner_loops=200, repeats=3):
+    """Per-shape seconds of pyFM's SDs on given maps, and the SDs ``(n, 2, k, k)``."""
+    area_SD, conformal_SD, _ = fns
+    ev0 = base_basis.evals
+    Cs = [f.matrix for f in fmaps]
+    evs = [f.target.evals for f in fmaps]
+    out = np.stack([np.stack([area_SD(C), conformal_SD(C, ev0, ev)]) for C, ev in zip(Cs, evs)])
+
+    def loop(which):
+        def run():
+            for _ in range(inner_loops):
+                for C, ev in zip(Cs, evs):
+                    if which in ("area", "both"):
+                        area_SD(C)
+                    if which in ("conformal", "both"):
+                        conformal_SD(C, ev0, ev)
+        return run
+
+    per_shape = {}
+    for which in ("area", "conformal", "both"):
+        loop(which)()  # warm-up
+        per_shape[which] = best_of(loop(which), repeats) / (inner_loops * len(Cs))
+    return per_shape, out
+
+
+# ---- profiling ------------------------------------------------------------------------------------------
+
+def profile_fast(base_basis, shapes, batch_size, top=18):
+    """cProfile of the fast path: its text report and the top functions by own time."""
+    pr = cProfile.Profile()
+    pr.enable()
+    opnet.shape_differences(base_basis, shapes, kinds=KINDS, batch_size=batch_size, progress=False)
+    pr.disable()
+    s = io.StringIO()
+    st = pstats.Stats(pr, stream=s).sort_stats("tottime")
+    st.print_stats(top)
+    rows = []
+    for (file, line, func), (cc, nc, tt, ct, _) in sorted(st.stats.items(), key=lambda kv: -kv[1][2])[:top]:
+        rows.append({"function": f"{Path(file).name}:{line}({func})", "calls": nc, "tottime_s": tt, "cumtime_s": ct})
+    return s.getvalue(), rows
+
+
+# ---- report ------------------------------------------------------------------------------------------------
+
+def cpu_busy_fraction(window: float = 1.0) -> float | None:
+    """Fraction of all CPUs busy over ``window`` seconds (Linux ``/proc/stat``), or ``None`` elsewhere."""
+    def snap():
+        with open("/proc/stat") as f:
+            vals = [int(x) for x in f.readline().split()[1:]]
+        return sum(vals), vals[3] + vals[4]  # total, idle + iowait
+
+    try:
+        t0, i0 = snap()
+        time.sleep(window)
+        t1, i1 = snap()
+    except (OSError, ValueError, IndexError):
+        return None
+    return 1.0 - (i1 - i0) / max(t1 - t0, 1)
+
+
+class OtherLoad:
+    """CPU time used by *other* processes while the benchmark runs, as a fraction of all CPUs (Linux)."""
+
+    def __init__(self):
+        self.start = self._sample()
+
+    @staticmethod
+    def _sample():
+        try:
+            with open("/proc/stat") as f:
+                vals = [int(x) for x in f.readline().split()[1:]]
+        except (OSError, ValueError):
+            return None
+        hz = os.sysconf("SC_CLK_TCK")
+        t = os.times()
+        return (sum(vals) - vals[3] - vals[4]) / hz, t.user + t.system, time.perf_counter()
+
+    def fraction(self) -> float | None:
+        end = self._sample()
+        if self.start is None or end is None:
+            return None
+        busy, own, wall = (e - s for e, s in zip(end, self.start))
+        return max(busy - own, 0.0) / (wall * (os.cpu_count() or 1))
+
+
+def machine_info(pyfm_version):
+    info = {
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpu_count": os.cpu_count(),
+        "cpus_usable": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "opnet": opnet.__version__,
+        "pyfmaps": pyfm_version,
+    }
+    if hasattr(os, "getloadavg"):
+        info["loadavg_1min_at_start"] = round(os.getloadavg()[0], 2)
+    busy = cpu_busy_fraction()
+    if busy is not None:
+        info["cpu_busy_at_start"] = f"{100 * busy:.0f} %"
+    try:  # optional: which BLAS and how many threads
+        from threadpoolctl import threadpool_info
+
+        info["blas"] = [
+            f"{p.get('internal_api')} {p.get('version')} ({p.get('num_threads')} threads)"
+            for p in threadpool_info()
+            if p.get("user_api") == "blas"
+        ]
+    except Exception:
+        pass
+    return info
+
+
+def fmt_rate(x):
+    return f"{x:,.1f}" if x < 1e4 else f"{x:,.0f}"
+
+
+def fmt_sec(x):
+    return f"{x * 1e3:.3f} ms" if x < 1 else f"{x:.3f} s"
+
+
+def markdown_table(rows):
+    head = "| method | operators | shapes/s | s/shape | speed-up vs explicit | max rel. diff vs explicit |"
+    lines = [head, "|---|---|---:|---:|---:|---:|"]
+    for r in rows:
+        sp_ = "—" if r["speedup"] is None else f"{r['speedup']:,.0f}×" if r["speedup"] >= 10 else f"{r['speedup']:.2f}×"
+        rd = "—" if r["max_rel_diff"] is None else ("0 (reference)" if r["max_rel_diff"] == 0 else f"{r['max_rel_diff']:.1e}")
+        lines.append(
+            f"| {r['method']} | {r['operators']} | {fmt_rate(1 / r['s_per_shape'])} | {fmt_sec(r['s_per_shape'])} | {sp_} | {rd} |"
+        )
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="short smoke run (< 30 s): fewer shapes")
+    ap.add_argument("--json", metavar="PATH", help="also write the results as JSON to PATH")
+    ap.add_argument("--n-shapes", type=int, help="shapes for the fast path (default 500; 100 with --quick)")
+    ap.add_argument("--n-explicit", type=int, help="shapes for the explicit formula (default 5; 3 with --quick)")
+    ap.add_argument("--preset", default="default", help="toy.capsule resolution preset (default 'default', ~1000 vertices)")
+    ap.add_argument("--k", type=int, default=60, help="size of the base eigenbasis (default 60)")
+    ap.add_argument("--repeats", type=int, default=3, help="repeats for the fast path; the best is kept (default 3)")
+    ap.add_argument("--batch-size", type=int, default=64, help="batch_size passed to shape_differences (default 64)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the shape generator (default 0)")
+    ap.add_argument("--profile", action="store_true", help="profile the fast path even if the throughput target is met")
+    ap.add_argument("--strict", action="store_true", help="exit with status 1 if a target is missed")
+    args = ap.parse_args(argv)
+    n_shapes = args.n_shapes or (100 if args.quick else 500)
+    n_explicit = args.n_explicit or (3 if args.quick else 5)
+
+    monitor = OtherLoad()
+    base = toy.capsule(args.preset)
+    base_basis = opnet.eigenbasis(base, args.k)
+    shapes = make_shapes(base, max(n_shapes, n_explicit), args.seed)
+    for v in shapes[:n_explicit]:
+        base.with_vertices(v)  # validates (no degenerate faces)
+    fns, pyfm_note = import_pyfm()
+    info = machine_info(fns[2] if fns else None)
+    busy = "cpu_busy_at_start" in info and float(info["cpu_busy_at_start"].rstrip(" %")) > 20
+    if busy:
+        print(
+            f"WARNING: {info['cpu_busy_at_start']} of the CPUs were busy just before the benchmark started: other "
+            "processes are using them and the timings below will be pessimistic; rerun on an idle machine.\n",
+            flush=True,
+        )
+
+    print(f"# Shape-difference benchmark{' (--quick)' if args.quick else ''}\n")
+    print(
+        f"base: toy.capsule({args.preset!r}), {base.n_vertices} vertices, {base.n_faces} faces; base eigenbasis k = {args.k}; "
+        f"fast path on {n_shapes} shapes (batch_size {args.batch_size}, best of {args.repeats}), "
+        f"explicit formula on {n_explicit} shapes; seed {args.seed}\n",
+        flush=True,
+    )
+
+    # 1. fast path
+    fast = {"all": time_fast(base_basis, shapes[:n_shapes], KINDS, args.repeats, args.batch_size)}
+    for kind in KINDS:
+        fast[kind] = time_fast(base_basis, shapes[:n_shapes], (kind,), args.repeats, args.batch_size)
+    D_fast = opnet.shape_differences(base_basis, shapes[:n_explicit], kinds=KINDS, progress=False)
+
+    # 2. explicit formula
+    D_exp, fmaps, exp_all, stages = time_explicit(base_basis, base, shapes[:n_explicit])
+    shared = stages["eigendecomposition"] + stages["fmap"]
+    exp = {"all": exp_all, **{kind: shared + stages[kind] for kind in KINDS}}
+
+    # 3. rows
+    rows = []
+    label = {"all": " + ".join(KINDS)}
+    label.update({k: k for k in KINDS})
+    for key in ("all", *KINDS):
+        sl = slice(None) if key == "all" else KINDS.index(key)
+        rows.append({
+            "method": "opnet fast path `shape_differences`",
+            "operators": label[key],
+            "s_per_shape": fast[key],
+            "speedup": exp[key] / fast[key],
+            "max_rel_diff": rel_diff(D_fast[:, sl], D_exp[:, sl]),
+        })
+    for key in ("all", *KINDS):
+        rows.append({
+            "method": "explicit: full eigh + `identity_fmap` + `shape_difference`",
+            "operators": label[key],
+            "s_per_shape": exp[key],
+            "speedup": 1.0,
+            "max_rel_diff": 0.0,
+        })
+
+    # 4. pyFM
+    pyfm = None
+    if fns is not None:
+        per, D_pyfm = time_pyfm(fns, base_basis, fmaps)
+        pyfm = {"s_per_shape": per}
+        for key, sl, name in (("area", 0, "area"), ("conformal", 1, "conformal")):
+            rows.append({
+                "method": f"pyFM `{name}_SD` (C, Λ given)",
+                "operators": name,
+                "s_per_shape": per[key],
+                "speedup": exp[name] / per[key],
+                "max_rel_diff": rel_diff(D_pyfm[:, sl], D_exp[:, KINDS.index(name)]),
+            })
+        exp_ac = shared + stages["area"] + stages["conformal"]
+        rows.append({
+            "method": "pyFM `area_SD` + `conformal_SD` (C, Λ given)",
+            "operators": "area + conformal",
+            "s_per_shape": per["both"],
+            "speedup": exp_ac / per["both"],
+            "max_rel_diff": rel_diff(D_pyfm, D_exp[:, :2]),
+        })
+        rows.append({
+            "method": "pyFM `area_SD` + `conformal_SD` + full eigh + C",
+            "operators": "area + conformal",
+            "s_per_shape": per["both"] + shared,
+            "speedup": exp_ac / (per["both"] + shared),
+            "max_rel_diff": rel_diff(D_pyfm, D_exp[:, :2]),
+        })
+
+    print(markdown_table(rows))
+    print()
+    print(
+        "explicit formula per shape: "
+        + ", ".join(f"{k} {fmt_sec(v)}" for k, v in stages.items())
+        + f" (total {fmt_sec(exp_all)})"
+    )
+    print(
+        "max rel. diff = max over the explicitly timed shapes of ‖D − D_explicit‖_F / ‖D_explicit‖_F. "
+        "Explicit per-operator rows = eigendecomposition + fmap + that operator."
+    )
+    if fns is None:
+        print(f"pyFM rows skipped: {pyfm_note}")
+    else:
+        print(
+            "pyFM rows time only pyFM's SD step on the explicit path's functional maps C (n × k) and eigenvalues; "
+            "the last pyFM row adds the measured eigendecomposition + fmap time. pyFM has no extrinsic SD."
+        )
+    print("\nmachine: " + "; ".join(f"{k} {v}" for k, v in info.items() if v is not None))
+
+    other = monitor.fraction()
+    if other is not None:
+        info["cpu_used_by_other_processes_during_run"] = f"{100 * other:.0f} %"
+        print(f"CPU time used by other processes during the run: {100 * other:.0f} % of all CPUs"
+              + (" — WARNING: contended, timings are pessimistic" if other > 0.1 else ""))
+
+    # targets
+    speedup_all = exp["all"] / fast["all"]
+    rate_all = 1 / fast["all"]
+    targets = {
+        "speedup": {"value": speedup_all, "target": TARGET_SPEEDUP, "met": bool(speedup_all >= TARGET_SPEEDUP)},
+        "throughput_shapes_per_s": {"value": rate_all, "target": TARGET_THROUGHPUT, "met": bool(rate_all >= TARGET_THROUGHPUT)},
+    }
+    print("\n## Targets\n")
+    print(
+        f"- fast path ≥ {TARGET_SPEEDUP:.0f}× faster than the explicit formula (all three operators): "
+        f"{speedup_all:,.0f}× → {'MET' if targets['speedup']['met'] else 'NOT MET'}"
+    )
+    print(
+        f"- fast path ≥ {TARGET_THROUGHPUT:.0f} shapes/s for all three operators together on "
+        f"{info['cpus_usable']} cores: {rate_all:,.1f} shapes/s → {'MET' if targets['throughput_shapes_per_s']['met'] else 'NOT MET'}"
+    )
+
+    # profiling
+    prof = None
+    if args.profile or not targets["throughput_shapes_per_s"]["met"]:
+        text, prof_rows = profile_fast(base_basis, shapes[:n_shapes], args.batch_size)
+        share = {k: fast[k] / sum(fast[q] for q in KINDS) for k in KINDS}
+        print("\n## Fast-path profile\n")
+        print(
+            "time share per operator (from the separate timings): "
+            + ", ".join(f"{k} {100 * v:.0f} %" for k, v in share.items())
+        )
+        print("```\n" + text.strip() + "\n```")
+        prof = {"operator_share": share, "top_functions": prof_rows}
+
+    if args.json:
+        result = {
+            "config": {
+                "mesh": f"toy.capsule({args.preset!r})",
+                "n_vertices": base.n_vertices,
+                "n_faces": base.n_faces,
+                "k": args.k,
+                "n_shapes_fast": n_shapes,
+                "n_shapes_explicit": n_explicit,
+                "batch_size": args.batch_size,
+                "repeats": args.repeats,
+                "seed": args.seed,
+                "quick": args.quick,
+            },
+            "machine": info,
+            "rows": [{**r, "shapes_per_s": 1 / r["s_per_shape"]} for r in rows],
+            "explicit_stages_s_per_shape": stages,
+            "pyfm": pyfm if pyfm is not None else {"skipped": pyfm_note},
+            "targets": targets,
+            "machine_busy_at_start": busy,
+            "loadavg_1min_at_end": round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None,
+            "profile": prof,
+        }
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(result, indent=2))
+        print(f"\nJSON written to {args.json}")
+
+    if args.strict and not all(t["met"] for t in targets.values()):
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

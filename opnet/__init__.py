@@ -1,0 +1,42 @@
+"""opnet: OperatorNet (Huang et al., ICCV 2019) — shapes as shape-difference operators, and back.
+
+Public API::
+
+    mesh  = opnet.Mesh(vertices, faces)        # validated; raises opnet.MeshError
+    mesh  = opnet.load_mesh(path)              # .ply .obj .off .stl via trimesh
+    basis = opnet.eigenbasis(mesh, k)          # .evals (k,), .evecs (n, k), .mass (n,)
+    D     = opnet.shape_difference(base_basis, target_mesh, kind, fmap=None)
+    Ds    = opnet.shape_differences(base_basis, vertices)   # (B, 3, k, k), batched fast path
+    G     = opnet.gram_matrix(basis, X);  Y = opnet.recover_embedding(G, basis)
+    Dt    = opnet.interpolate(D0, D1, t, scheme="multiplicative" | "linear")
+    DX    = opnet.analogy(DA, DB, DC)          # D_X = D_C D_A⁺ D_B
+"""
+from .algebra import analogy, interpolate, log_difference, relative_difference
+from .fmaps import FunctionalMap, fmap_from_p2p, fmap_from_soft_map, identity_fmap
+from .gram import gram_matrix, recover_embedding
+from .inner_products import (
+    INNER_PRODUCTS,
+    AreaInnerProduct,
+    ConformalInnerProduct,
+    ExtrinsicInnerProduct,
+    InnerProduct,
+    get_inner_product,
+)
+from .mesh import Mesh, MeshError, load_mesh
+from .metrics import d_E, d_R, d_V, kabsch, mesh_volume, rigid_align
+from .shape_difference import KINDS, distortion_function, pinv_psd, shape_difference, shape_differences
+from .spectral import Eigenbasis, cotan_edge_weights, eigenbasis, vertex_areas
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Mesh", "MeshError", "load_mesh",
+    "Eigenbasis", "eigenbasis", "vertex_areas", "cotan_edge_weights",
+    "FunctionalMap", "fmap_from_p2p", "fmap_from_soft_map", "identity_fmap",
+    "InnerProduct", "AreaInnerProduct", "ConformalInnerProduct", "ExtrinsicInnerProduct",
+    "INNER_PRODUCTS", "get_inner_product",
+    "KINDS", "shape_difference", "shape_differences", "distortion_function", "pinv_psd",
+    "gram_matrix", "recover_embedding",
+    "interpolate", "analogy", "relative_difference", "log_difference",
+    "kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume",
+]

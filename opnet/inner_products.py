@@ -1,0 +1,128 @@
+"""Inner products on vertex functions, expressed in a basis: ``K = Φᵀ M Φ``.
+
+A shape difference (eq. 2 of the paper) needs one thing from an inner product: the
+``k × k`` matrix ``K = Φᵀ M Φ`` of some positive semi-definite operator ``M`` on the
+mesh's vertex functions, for a basis ``Φ`` ``(n, k)``. Subclass :class:`InnerProduct`
+and implement :meth:`InnerProduct.project` to add a new one::
+
+    class Gram(opnet.InnerProduct):
+        name = "gram"
+        def project(self, vertices, faces, evecs):
+            F = evecs.T @ (opnet.vertex_areas(vertices, faces)[:, None] * vertices)
+            return F @ F.T
+
+Override :meth:`InnerProduct.project_batch` as well when a vectorised form over many
+shapes with the same faces exists (the three built-ins do).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .mesh import unique_edges
+from .spectral import cotan_edge_weights, vertex_areas
+
+__all__ = [
+    "InnerProduct",
+    "AreaInnerProduct",
+    "ConformalInnerProduct",
+    "ExtrinsicInnerProduct",
+    "INNER_PRODUCTS",
+    "get_inner_product",
+]
+
+
+def _weighted_gram(evecs: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """``Φᵀ diag(w) Φ`` for weights ``(..., n)``, giving ``(..., k, k)``."""
+    return np.matmul(evecs.T, weights[..., :, None] * evecs)
+
+
+class InnerProduct:
+    """An inner product ``⟨f, g⟩ = fᵀ M g`` on vertex functions, one per shape.
+
+    Subclasses set :attr:`name` and implement :meth:`project`.
+    """
+
+    name = "custom"
+
+    def project(self, vertices: np.ndarray, faces: np.ndarray, evecs: np.ndarray) -> np.ndarray:
+        """``Φᵀ M Φ`` ``(k, k)`` for one shape: vertices ``(n, 3)``, faces ``(m, 3)``, ``Φ`` ``(n, k)``.
+
+        ``M`` is the operator of this inner product on that shape; ``Φ`` may be any
+        basis of vertex functions on it (its own eigenbasis or the base's one).
+        """
+        raise NotImplementedError(f"{type(self).__name__} must implement project(vertices, faces, evecs).")
+
+    def project_batch(self, vertices: np.ndarray, faces: np.ndarray, evecs: np.ndarray) -> np.ndarray:
+        """``Φᵀ M_b Φ`` ``(B, k, k)`` for shapes ``(B, n, 3)`` sharing ``faces``; loops :meth:`project` by default."""
+        return np.stack([self.project(v, faces, evecs) for v in vertices])
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r})"
+
+
+class AreaInnerProduct(InnerProduct):
+    """The ``L²`` inner product, ``M = A`` (lumped mass). In a shape's own basis ``K = I``."""
+
+    name = "area"
+
+    def project(self, vertices, faces, evecs):
+        return _weighted_gram(evecs, vertex_areas(vertices, faces))
+
+    project_batch = project
+
+
+class ConformalInnerProduct(InnerProduct):
+    """The ``H¹`` (Dirichlet) inner product, ``M = W`` (cotan stiffness). In a shape's own basis ``K = Λ``."""
+
+    name = "conformal"
+
+    def project(self, vertices, faces, evecs):
+        edges = unique_edges(faces)
+        diff = evecs[edges[:, 0]] - evecs[edges[:, 1]]  # (e, k)
+        return _weighted_gram(diff, cotan_edge_weights(vertices, faces, edges))
+
+    project_batch = project
+
+
+class ExtrinsicInnerProduct(InnerProduct):
+    """The paper's extrinsic inner product ``M = E^D`` (eq. for ``E^D``).
+
+    ``E(i, j) = ‖v_i − v_j‖² A_i A_j`` and ``E^D = diag(E 1) − E`` is the Laplacian of the
+    complete graph with weights ``E``. Since ``E = u aᵀ + a uᵀ − 2 Y Yᵀ`` with
+    ``u = A|v|²`` and ``Y = A v`` (rank ≤ 5), ``Φᵀ E^D Φ`` costs ``O(n k²)`` and no
+    ``n × n`` matrix is formed.
+    """
+
+    name = "extrinsic"
+
+    def project(self, vertices, faces, evecs):
+        a = vertex_areas(vertices, faces)  # (..., n)
+        # distances are translation invariant: centring first avoids cancellation
+        v = vertices - (a[..., None] * vertices).sum(-2, keepdims=True) / a.sum(-1)[..., None, None]
+        u = a * np.einsum("...ni,...ni->...n", v, v)
+        y = a[..., None] * v  # (..., n, 3)
+        rowsum = u * a.sum(-1, keepdims=True) + a * u.sum(-1, keepdims=True) - 2 * np.einsum(
+            "...ni,...i->...n", y, y.sum(-2)
+        )
+        pa, pu, py = evecs.T @ a[..., None], evecs.T @ u[..., None], evecs.T @ y  # (..., k, 1|3)
+        low_rank = pu @ np.swapaxes(pa, -1, -2) + pa @ np.swapaxes(pu, -1, -2) - 2 * py @ np.swapaxes(py, -1, -2)
+        return _weighted_gram(evecs, rowsum) - low_rank
+
+    project_batch = project
+
+
+INNER_PRODUCTS = {ip.name: ip for ip in (AreaInnerProduct(), ConformalInnerProduct(), ExtrinsicInnerProduct())}
+
+
+def get_inner_product(kind) -> InnerProduct:
+    """``"area"``, ``"conformal"``, ``"extrinsic"`` or an :class:`InnerProduct` instance."""
+    if isinstance(kind, InnerProduct):
+        return kind
+    if isinstance(kind, type) and issubclass(kind, InnerProduct):
+        return kind()
+    try:
+        return INNER_PRODUCTS[kind]
+    except (KeyError, TypeError):
+        raise ValueError(
+            f"unknown shape-difference kind {kind!r}; use one of {sorted(INNER_PRODUCTS)} or an opnet.InnerProduct instance."
+        ) from None

@@ -1,0 +1,236 @@
+"""Triangle meshes: validated construction, loading, and per-vertex geometry.
+
+A :class:`Mesh` holds float64 vertex coordinates ``(n, 3)`` and int64 faces
+``(m, 3)``. Construction checks everything the spectral code relies on and
+raises :class:`MeshError` with a message that names the problem and the fix.
+"""
+from __future__ import annotations
+
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+import potpourri3d as pp3d
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+__all__ = ["Mesh", "MeshError", "load_mesh", "unique_edges", "face_areas"]
+
+_LOADABLE = (".ply", ".obj", ".off", ".stl")
+
+
+class MeshError(ValueError):
+    """A mesh that the operators cannot be built on; the message says how to fix it."""
+
+
+def face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Triangle areas, ``(..., m)`` for vertices ``(..., n, 3)`` and faces ``(m, 3)``."""
+    v = vertices[..., faces, :]  # (..., m, 3, 3)
+    cross = np.cross(v[..., 1, :] - v[..., 0, :], v[..., 2, :] - v[..., 0, :])
+    return 0.5 * np.linalg.norm(cross, axis=-1)
+
+
+def unique_edges(faces: np.ndarray) -> np.ndarray:
+    """Undirected edges ``(e, 2)`` of a triangle list, each once, sorted ``i < j``."""
+    e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    return np.unique(e, axis=0)
+
+
+def _as_vertices(vertices) -> np.ndarray:
+    try:
+        v = np.asarray(vertices)
+    except Exception as exc:  # ragged lists and the like
+        raise MeshError(f"vertices could not be read as an array ({exc}); pass an (n, 3) float array.") from None
+    if v.dtype.kind not in "fiu":
+        raise MeshError(f"vertices have dtype {v.dtype}; pass real numbers, e.g. np.asarray(vertices, dtype=float).")
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise MeshError(f"vertices have shape {v.shape}; a mesh needs an (n, 3) array of xyz coordinates.")
+    v = v.astype(np.float64)
+    bad = ~np.isfinite(v).all(axis=1)
+    if bad.any():
+        raise MeshError(
+            f"{bad.sum()} vertices have NaN or infinite coordinates (first: vertex {np.flatnonzero(bad)[0]}); "
+            "remove or repair them before building the mesh."
+        )
+    return v
+
+
+def _as_faces(faces, n: int) -> np.ndarray:
+    try:
+        f = np.asarray(faces)
+    except Exception:  # ragged lists, e.g. triangles mixed with quads
+        raise MeshError("faces could not be read as an (m, 3) array; triangulate polygons first.") from None
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise MeshError(f"faces have shape {f.shape}; pass an (m, 3) integer array of triangles (triangulate polygons first).")
+    if f.dtype.kind == "f":
+        if not np.all(np.isfinite(f)) or np.any(f != np.round(f)):
+            raise MeshError("faces hold non-integer values; faces are vertex indices, pass an integer array.")
+    elif f.dtype.kind not in "iu":
+        raise MeshError(f"faces have dtype {f.dtype}; pass an integer array of vertex indices.")
+    f = f.astype(np.int64)
+    if len(f) == 0:
+        raise MeshError("the mesh has no faces; pass at least one triangle.")
+    if f.min() < 0 or f.max() >= n:
+        raise MeshError(
+            f"face indices must lie in [0, {n - 1}] for {n} vertices, got range [{f.min()}, {f.max()}]; "
+            "check for 1-based indices (subtract 1) or a faces array from another mesh."
+        )
+    return f
+
+
+def _largest_component(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    n = len(v)
+    _, labels = _components(f, n)
+    keep = labels == np.bincount(labels).argmax()
+    kept = np.flatnonzero(keep)
+    remap = np.full(n, -1)
+    remap[kept] = np.arange(len(kept))
+    f = remap[f[keep[f[:, 0]]]]
+    return v[kept], f, kept
+
+
+def _components(f: np.ndarray, n: int) -> tuple[int, np.ndarray]:
+    rows = f[:, [0, 1, 2]].ravel()
+    cols = f[:, [1, 2, 0]].ravel()
+    adj = sp.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    return connected_components(adj, directed=False)
+
+
+class Mesh:
+    """A validated triangle mesh.
+
+    Parameters
+    ----------
+    vertices : array_like, (n, 3)
+        Vertex coordinates (any length unit; stored as float64).
+    faces : array_like, (m, 3)
+        Triangles as vertex indices (stored as int64).
+    keep_largest_component : bool
+        If the mesh has several connected components (or unused vertices), keep the
+        largest one instead of raising. ``mesh.kept_vertices`` maps the new vertex
+        indices to the input's.
+    normalize_area : bool
+        Scale the mesh to unit total surface area about its area-weighted centroid
+        (as the authors' code does before computing operators).
+
+    Raises
+    ------
+    MeshError
+        NaN/inf coordinates, wrong shapes or dtypes, face indices out of range,
+        zero-area faces, non-manifold edges, several components, fewer than 4 vertices.
+    """
+
+    def __init__(self, vertices, faces, *, keep_largest_component: bool = False, normalize_area: bool = False):
+        v = _as_vertices(vertices)
+        if len(v) < 4:
+            raise MeshError(f"the mesh has {len(v)} vertices; a closed or open surface needs at least 4 (a tetrahedron).")
+        f = _as_faces(faces, len(v))
+        kept = np.arange(len(v))
+        n_comp, labels = _components(f, len(v))
+        if n_comp > 1:
+            if not keep_largest_component:
+                sizes = np.sort(np.bincount(labels))[::-1]
+                unused = len(v) - len(np.unique(f))
+                detail = f" ({unused} of them are vertices used by no face)" if unused else ""
+                raise MeshError(
+                    f"the mesh has {n_comp} connected components{detail}, sizes {sizes[:5].tolist()}"
+                    f"{'...' if n_comp > 5 else ''}; the Laplacian of a disconnected mesh has several zero "
+                    "eigenvalues. Pass keep_largest_component=True to keep the largest one."
+                )
+            v, f, kept = _largest_component(v, f)
+            if len(v) < 4:
+                raise MeshError(f"the largest component has {len(v)} vertices; at least 4 are needed.")
+        self._check_faces(v, f)
+        if normalize_area:
+            a = face_areas(v, f)
+            centroid = (a[:, None] * v[f].mean(axis=1)).sum(0) / a.sum()
+            v = (v - centroid) / np.sqrt(a.sum())
+        v.setflags(write=False)
+        f.setflags(write=False)
+        kept.setflags(write=False)
+        self.vertices = v
+        self.faces = f
+        self.kept_vertices = kept
+
+    @staticmethod
+    def _check_faces(v: np.ndarray, f: np.ndarray) -> None:
+        repeated = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 2] == f[:, 0])
+        if repeated.any():
+            raise MeshError(
+                f"{repeated.sum()} faces repeat a vertex (first: face {np.flatnonzero(repeated)[0]} = {f[repeated][0].tolist()}); "
+                "remove degenerate faces, e.g. trimesh's mesh.update_faces(mesh.nondegenerate_faces())."
+            )
+        diag2 = float(np.sum((v.max(0) - v.min(0)) ** 2))
+        tiny = face_areas(v, f) <= 1e-12 * diag2
+        if tiny.any():
+            raise MeshError(
+                f"{tiny.sum()} faces have zero area (first: face {np.flatnonzero(tiny)[0]}); cotan weights are undefined "
+                "there. Remove them or merge their collinear/duplicate vertices (trimesh: merge_vertices, "
+                "update_faces(nondegenerate_faces()))."
+            )
+        e = np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        _, counts = np.unique(e, axis=0, return_counts=True)
+        if (counts > 2).any():
+            raise MeshError(
+                f"{(counts > 2).sum()} edges are shared by more than two faces (non-manifold); the cotan Laplacian "
+                "needs a manifold surface. Remove duplicate faces or repair the mesh (e.g. pymeshfix)."
+            )
+
+    # -- geometry ---------------------------------------------------------------------------------
+    @property
+    def n_vertices(self) -> int:
+        return len(self.vertices)
+
+    @property
+    def n_faces(self) -> int:
+        return len(self.faces)
+
+    @cached_property
+    def mass(self) -> np.ndarray:
+        """Barycentric lumped mass ``A`` as a vector ``(n,)``: a third of each incident triangle's area."""
+        mass = pp3d.vertex_areas(self.vertices, self.faces)
+        mass.setflags(write=False)  # shared with every Eigenbasis of this mesh
+        return mass
+
+    @cached_property
+    def stiffness(self) -> sp.csr_matrix:
+        """Cotan stiffness ``W`` ``(n, n)``, positive semi-definite, rows summing to zero."""
+        return pp3d.cotan_laplacian(self.vertices, self.faces).tocsr()
+
+    @property
+    def area(self) -> float:
+        """Total surface area (squared length unit)."""
+        return float(self.mass.sum())
+
+    def with_vertices(self, vertices) -> "Mesh":
+        """The same connectivity with new coordinates ``(n, 3)`` (validated)."""
+        return Mesh(vertices, self.faces)
+
+    def __repr__(self) -> str:
+        return f"Mesh(n_vertices={self.n_vertices}, n_faces={self.n_faces}, area={self.area:.4g})"
+
+
+def load_mesh(path, **kwargs) -> Mesh:
+    """Read a ``.ply``, ``.obj``, ``.off`` or ``.stl`` file into a validated :class:`Mesh`.
+
+    The vertex order of the file is kept (no merging or reordering), so meshes in
+    correspondence stay in correspondence. STL stores every triangle with its own
+    three vertices: those are merged, so an STL file cannot carry a vertex order.
+    ``kwargs`` go to :class:`Mesh`.
+    """
+    import trimesh
+
+    path = Path(path)
+    if path.suffix.lower() not in _LOADABLE:
+        raise MeshError(f"cannot read '{path.name}': supported formats are {', '.join(_LOADABLE)}.")
+    if not path.is_file():
+        raise FileNotFoundError(f"no mesh file at '{path}'.")
+    try:
+        tm = trimesh.load(path, force="mesh", process=False)
+        if path.suffix.lower() == ".stl":
+            tm.merge_vertices()
+    except Exception as exc:
+        raise MeshError(f"trimesh could not parse '{path}': {exc}") from exc
+    if not hasattr(tm, "faces") or len(tm.faces) == 0:
+        raise MeshError(f"'{path}' holds no triangles (a point cloud?); OperatorNet needs a triangle mesh.")
+    return Mesh(tm.vertices, tm.faces, **kwargs)

@@ -1,0 +1,155 @@
+"""Shape difference operators ``D^K = K_0⁺ (Cᵀ K_i C)`` (eqs. 2–4 and the extrinsic eq. of the paper).
+
+Two ways to evaluate ``Cᵀ K_i C``:
+
+* **explicit** (any functional map): ``K_i = Φ_iᵀ M_i Φ_i`` in the target's own basis,
+  carried over by ``C``; this is the paper's formula and needs the target's eigenbasis.
+* **fast path** (meshes in 1-1 correspondence with a full target basis, the paper's
+  training setting): ``C = Φ_iᵀ A_i Φ_0`` and ``Φ_i Φ_iᵀ A_i = I`` give
+  ``Cᵀ K_i C = Φ_0ᵀ M_i Φ_0``, which needs only the base basis. This is what
+  :func:`shape_difference` does when ``fmap`` is omitted, and what
+  :func:`shape_differences` does for a whole collection at once.
+"""
+from __future__ import annotations
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from .fmaps import FunctionalMap
+from .inner_products import get_inner_product
+from .mesh import Mesh
+from .spectral import Eigenbasis
+
+__all__ = ["shape_difference", "shape_differences", "distortion_function", "KINDS", "pinv_psd"]
+
+KINDS = ("area", "conformal", "extrinsic")
+
+
+def pinv_psd(K: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
+    """Moore–Penrose pseudo-inverse of a symmetric PSD matrix ``(k, k)``.
+
+    Eigenvalues below ``rtol`` times the largest are treated as zero (e.g. the constant
+    function in the kernel of ``Λ`` or of ``Φᵀ E^D Φ``).
+    """
+    K = 0.5 * (K + K.T)
+    w, U = np.linalg.eigh(K)
+    keep = w > rtol * max(w.max(), 0.0)
+    return (U[:, keep] / w[keep]) @ U[:, keep].T
+
+
+def _check_base(base_basis) -> None:
+    if not isinstance(base_basis, Eigenbasis):
+        raise TypeError(
+            f"base_basis must be an opnet.Eigenbasis (opnet.eigenbasis(base_mesh, k)), got {type(base_basis).__name__}."
+        )
+
+
+def shape_difference(base_basis: Eigenbasis, target, kind="area", fmap: FunctionalMap | None = None) -> np.ndarray:
+    """The shape difference ``D^K_{0i}`` ``(k_0, k_0)`` of ``target`` seen from the base.
+
+    Parameters
+    ----------
+    base_basis : Eigenbasis
+        Eigenbasis of the base shape ``S_0`` (``k_0`` functions).
+    target : Mesh or array (n, 3)
+        The shape ``S_i``. An array is read as new coordinates of the base's faces.
+    kind : {"area", "conformal", "extrinsic"} or InnerProduct
+        ``"area"``: ``Cᵀ C``; ``"conformal"``: ``Λ_0⁺ Cᵀ Λ_i C``; ``"extrinsic"``:
+        ``(Φ_0ᵀ E^D_0 Φ_0)⁺ Cᵀ Φ_iᵀ E^D_i Φ_i C``; an InnerProduct: ``K_0⁺ Cᵀ K_i C``.
+    fmap : FunctionalMap, optional
+        Map from the base to ``target`` (its ``target`` basis is used for ``K_i``). When
+        omitted, the meshes must be in 1-1 correspondence and the fast path (identity
+        map, full target basis) is used.
+    """
+    _check_base(base_basis)
+    ip = get_inner_product(kind)
+    base = base_basis.mesh
+    if not isinstance(target, Mesh):
+        target = base.with_vertices(target)
+    K0 = ip.project(base.vertices, base.faces, base_basis.evecs)
+    if fmap is None:
+        if target.n_vertices != base.n_vertices:
+            raise ValueError(
+                f"the target has {target.n_vertices} vertices and the base {base.n_vertices}: without a 1-1 "
+                "correspondence pass fmap=opnet.fmap_from_p2p(...) or opnet.fmap_from_soft_map(...)."
+            )
+        Ki = ip.project(target.vertices, target.faces, base_basis.evecs)
+    else:
+        if not isinstance(fmap, FunctionalMap):
+            raise TypeError(f"fmap must be an opnet.FunctionalMap, got {type(fmap).__name__}.")
+        if fmap.source is not base_basis:
+            raise ValueError("fmap.source is not base_basis: build the functional map from this base eigenbasis.")
+        t = fmap.target.mesh
+        if t is not target and not (np.array_equal(t.vertices, target.vertices) and np.array_equal(t.faces, target.faces)):
+            raise ValueError("fmap.target is the eigenbasis of another mesh than target; pass the mesh the map goes to.")
+        C = fmap.matrix
+        Ki = C.T @ ip.project(t.vertices, t.faces, fmap.target.evecs) @ C
+    return pinv_psd(K0) @ Ki
+
+
+def shape_differences(
+    base_basis: Eigenbasis,
+    vertices: np.ndarray,
+    kinds=KINDS,
+    *,
+    batch_size: int = 64,
+    progress: bool | None = None,
+) -> np.ndarray:
+    """Shape differences of many shapes in 1-1 correspondence with the base (fast path).
+
+    Parameters
+    ----------
+    base_basis : Eigenbasis
+        Base eigenbasis (``k`` functions, ``n`` vertices).
+    vertices : (B, n, 3) array
+        Coordinates of ``B`` shapes sharing the base's faces.
+    kinds : sequence of kinds
+        Each ``"area"``, ``"conformal"``, ``"extrinsic"`` or an InnerProduct.
+    batch_size : int
+        Shapes evaluated together (memory grows as ``batch_size · n · k``).
+    progress : bool, optional
+        Show a progress bar (default: when more than one batch).
+
+    Returns
+    -------
+    (B, len(kinds), k, k) float64
+    """
+    _check_base(base_basis)
+    base = base_basis.mesh
+    vertices = np.asarray(vertices, dtype=np.float64)
+    if vertices.ndim != 3 or vertices.shape[1:] != base.vertices.shape:
+        raise ValueError(
+            f"vertices must have shape (B, {base.n_vertices}, 3) to share the base's faces, got {vertices.shape}."
+        )
+    if not np.isfinite(vertices).all():
+        raise ValueError("vertices contain NaN or infinite values.")
+    if isinstance(kinds, str):
+        raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
+    ips = [get_inner_product(kind) for kind in kinds]
+    phi, faces = base_basis.evecs, base.faces
+    k0_pinv = [pinv_psd(ip.project(base.vertices, faces, phi)) for ip in ips]
+    out = np.empty((len(vertices), len(ips), base_basis.k, base_basis.k))
+    starts = range(0, len(vertices), batch_size)
+    show = len(starts) > 1 if progress is None else progress
+    for s in tqdm(starts, desc="shape differences", unit="batch", disable=not show):
+        chunk = vertices[s : s + batch_size]
+        for c, (ip, kp) in enumerate(zip(ips, k0_pinv)):
+            out[s : s + len(chunk), c] = kp @ ip.project_batch(chunk, faces, phi)
+    return out
+
+
+def distortion_function(D: np.ndarray, base_basis: Eigenbasis) -> np.ndarray:
+    """The eigenfunction of ``D`` with the largest eigenvalue, as a vertex function ``(n,)`` on the base.
+
+    Following Rustamov et al., it highlights where the target is most distorted with
+    respect to the inner product of ``D`` (figure "eigenfuncs" of the paper). Its sign is
+    chosen so that its largest entry is positive; it is ``A``-normalised on the base.
+    """
+    _check_base(base_basis)
+    D = np.asarray(D, dtype=np.float64)
+    if D.shape != (base_basis.k, base_basis.k):
+        raise ValueError(f"D must be ({base_basis.k}, {base_basis.k}) to match the base basis, got {D.shape}.")
+    w, V = np.linalg.eig(D)
+    f = base_basis.evecs @ np.real(V[:, np.argmax(w.real)])
+    f /= np.sqrt(np.sum(base_basis.mass * f**2))
+    return f if f[np.abs(f).argmax()] > 0 else -f

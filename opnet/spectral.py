@@ -1,0 +1,152 @@
+"""Laplace–Beltrami eigenbasis ``W Φ = A Φ Λ`` and batched cotan/area weights.
+
+Single meshes take ``W`` (cotan stiffness) and ``A`` (barycentric lumped mass) from
+potpourri3d (see :attr:`opnet.Mesh.stiffness`). Collections that share one
+connectivity use :func:`cotan_edge_weights` and :func:`vertex_areas`, which evaluate
+the same quantities for a whole batch of coordinates at once with numpy.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+import scipy.sparse.linalg
+
+from .mesh import Mesh, face_areas
+
+__all__ = ["Eigenbasis", "eigenbasis", "cotan_edge_weights", "vertex_areas"]
+
+# Above this fraction of n the dense solver is cheaper and more reliable than ARPACK.
+_DENSE_FRACTION = 0.3
+
+
+@dataclass(frozen=True, eq=False)
+class Eigenbasis:
+    """The first ``k`` Laplace–Beltrami eigenpairs of a mesh.
+
+    Attributes
+    ----------
+    mesh : Mesh
+        The mesh the basis lives on.
+    evals : (k,) float64
+        Ascending eigenvalues ``Λ`` (1 / length²); ``evals[0] == 0`` exactly.
+    evecs : (n, k) float64
+        Eigenvectors ``Φ``, orthonormal for the mass: ``Φᵀ A Φ = I`` (1 / length).
+    mass : (n,) float64
+        The lumped mass ``A`` (length²), i.e. ``mesh.mass``.
+    """
+
+    mesh: Mesh
+    evals: np.ndarray
+    evecs: np.ndarray
+    mass: np.ndarray
+
+    @property
+    def k(self) -> int:
+        return len(self.evals)
+
+    def project(self, f: np.ndarray) -> np.ndarray:
+        """Coefficients ``Φᵀ A f`` of vertex functions ``f`` ``(n,)`` or ``(n, d)``."""
+        return self.evecs.T @ (self.mass.reshape(-1, *([1] * (np.ndim(f) - 1))) * f)
+
+    def truncate(self, k: int) -> "Eigenbasis":
+        """The first ``k`` eigenpairs of this basis."""
+        if not isinstance(k, (int, np.integer)) or not 1 <= k <= self.k:
+            raise ValueError(f"k must be in [1, {self.k}] to truncate this basis, got {k}.")
+        return Eigenbasis(self.mesh, self.evals[:k], self.evecs[:, :k], self.mass)
+
+
+def _fix_signs(evecs: np.ndarray) -> np.ndarray:
+    """Flip each column so that its entry of largest magnitude is positive.
+
+    Near-ties (mirror-symmetric meshes have ±max pairs) go to the lowest vertex index,
+    so rounding noise cannot flip a sign.
+    """
+    mag = np.abs(evecs)
+    idx = np.argmax(mag >= mag.max(axis=0) * (1 - 1e-6), axis=0)
+    signs = np.sign(evecs[idx, np.arange(evecs.shape[1])])
+    signs[signs == 0] = 1
+    return evecs * signs
+
+
+def eigenbasis(mesh: Mesh, k: int) -> Eigenbasis:
+    """The ``k`` smallest eigenpairs of ``W φ = λ A φ`` on ``mesh``.
+
+    Eigenvalues are ascending with the first exactly 0 and its eigenvector exactly
+    constant; eigenvectors are ``A``-orthonormal with a deterministic sign (largest
+    entry positive, ties to the lowest vertex index). The problem is solved at unit area and rescaled, so it behaves the
+    same for any scale of the mesh. ``k = n`` (a full basis) uses a dense solver.
+    """
+    if not isinstance(mesh, Mesh):
+        raise TypeError(f"eigenbasis expects an opnet.Mesh, got {type(mesh).__name__}; wrap arrays as opnet.Mesh(vertices, faces).")
+    n = mesh.n_vertices
+    if not isinstance(k, (int, np.integer)) or not 1 <= k <= n:
+        raise ValueError(f"k must be an integer in [1, n={n}] for this mesh, got {k!r}; use a finer mesh for more eigenpairs.")
+    k = int(k)
+    total = mesh.area
+    a = mesh.mass / total  # unit total area
+    W = mesh.stiffness
+    if k >= _DENSE_FRACTION * n or n < 200:
+        evals, evecs = scipy.linalg.eigh(W.toarray(), np.diag(a), subset_by_index=[0, k - 1])
+    else:
+        # Shift-invert about a small negative shift: W + 1e-2 A is positive definite.
+        v0 = np.linspace(1.0, 2.0, n)  # a fixed start vector makes ARPACK deterministic
+        evals, evecs = scipy.sparse.linalg.eigsh(W, k=k, M=sp.diags(a), sigma=-1e-2, which="LM", v0=v0)
+        order = np.argsort(evals)
+        evals, evecs = evals[order], evecs[:, order]
+    evals = np.maximum(evals, 0.0) / total
+    evecs = evecs / np.sqrt(total)
+    evals[0] = 0.0
+    evecs[:, 0] = 1.0 / np.sqrt(total)
+    return Eigenbasis(mesh, evals, _fix_signs(evecs), mesh.mass)
+
+
+# ---- batched weights for collections sharing one connectivity ---------------------------------------
+
+def _corner_cotangents(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """cot of each corner angle, ``(..., m, 3)``; corner c is opposite the edge (c+1, c+2)."""
+    v = vertices[..., faces, :]  # (..., m, 3, 3)
+    cots = []
+    for c in range(3):
+        e1 = v[..., (c + 1) % 3, :] - v[..., c, :]
+        e2 = v[..., (c + 2) % 3, :] - v[..., c, :]
+        cross = np.linalg.norm(np.cross(e1, e2), axis=-1)
+        cots.append(np.einsum("...i,...i->...", e1, e2) / cross)
+    return np.stack(cots, axis=-1)
+
+
+def _corner_to_edge(faces: np.ndarray, edges: np.ndarray) -> sp.csr_matrix:
+    """Sparse ``(3m, e)`` matrix adding each corner's value to its opposite edge."""
+    opp = np.stack([faces[:, [1, 2]], faces[:, [2, 0]], faces[:, [0, 1]]], axis=1).reshape(-1, 2)
+    opp = np.sort(opp, axis=1)
+    n = int(faces.max()) + 1
+    key_edges = edges[:, 0] * n + edges[:, 1]
+    col = np.searchsorted(key_edges, opp[:, 0] * n + opp[:, 1])
+    return sp.csr_matrix((np.ones(len(opp)), (np.arange(len(opp)), col)), shape=(len(opp), len(edges)))
+
+
+def _scatter(values: np.ndarray, matrix: sp.spmatrix) -> np.ndarray:
+    """``values @ matrix`` for values ``(..., p)`` and a sparse ``(p, q)`` matrix, giving ``(..., q)``."""
+    flat = values.reshape(-1, values.shape[-1])
+    return np.asarray(matrix.T @ flat.T).T.reshape(*values.shape[:-1], matrix.shape[1])
+
+
+def cotan_edge_weights(vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Cotan weights ``w_ij = (cot α + cot β) / 2`` per edge, ``(..., e)``.
+
+    ``vertices`` is ``(..., n, 3)``; ``edges`` is :func:`opnet.mesh.unique_edges` of
+    ``faces``. The stiffness is ``W = Σ_e w_e (δ_i − δ_j)(δ_i − δ_j)ᵀ``.
+    """
+    cot = _corner_cotangents(vertices, faces)
+    return 0.5 * _scatter(cot.reshape(*cot.shape[:-2], -1), _corner_to_edge(faces, edges))
+
+
+def vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Barycentric lumped mass ``(..., n)`` for vertices ``(..., n, 3)`` sharing ``faces``."""
+    incidence = sp.csr_matrix(
+        (np.ones(faces.size), (np.repeat(np.arange(len(faces)), 3), faces.ravel())),
+        shape=(len(faces), vertices.shape[-2]),
+    )
+    return _scatter(face_areas(vertices, faces) / 3.0, incidence)

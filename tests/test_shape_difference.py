@@ -1,0 +1,176 @@
+"""Shape differences against the paper's formulas (eqs. 1–4 and the extrinsic one)."""
+import numpy as np
+import pytest
+import scipy.linalg
+import scipy.sparse as sp
+from scipy.spatial.transform import Rotation
+
+import opnet
+
+KINDS = opnet.KINDS
+
+
+def dense_operator(mesh, kind):
+    """The n × n operator M of each inner product, built densely from the paper's definitions."""
+    a = mesh.mass
+    if kind == "area":
+        return np.diag(a)
+    if kind == "conformal":
+        return mesh.stiffness.toarray()
+    v = mesh.vertices
+    E = ((v[:, None, :] - v[None, :, :]) ** 2).sum(-1) * a[:, None] * a[None, :]
+    return np.diag(E.sum(1)) - E  # E^D: off-diagonal -E(i, j), diagonal the row sums
+
+
+def dense_shape_difference(base_basis, target, kind, p2p):
+    """D = K_0⁺ Cᵀ K_i C with C = Φ_iᵀ A_i Π Φ_0 and a full target eigenbasis, all dense."""
+    evals_i, phi_i = scipy.linalg.eigh(target.stiffness.toarray(), np.diag(target.mass))
+    Pi = np.zeros((target.n_vertices, base_basis.mesh.n_vertices))
+    Pi[np.arange(target.n_vertices), p2p] = 1.0
+    phi0 = base_basis.evecs
+    C = phi_i.T @ np.diag(target.mass) @ Pi @ phi0
+    if kind == "area":
+        K0, Ki = np.eye(base_basis.k), np.eye(len(evals_i))  # K^{L2} = Id
+    elif kind == "conformal":
+        K0, Ki = np.diag(base_basis.evals), np.diag(evals_i)  # K^{H1} = Λ
+    else:
+        K0 = phi0.T @ dense_operator(base_basis.mesh, kind) @ phi0
+        Ki = phi_i.T @ dense_operator(target, kind) @ phi_i
+    return np.linalg.pinv(K0, rcond=1e-9, hermitian=True) @ C.T @ Ki @ C
+
+
+def rel(a, b):
+    return np.abs(a - b).max() / np.abs(b).max()
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_difference_of_base_with_itself_is_identity(base, base_basis, kind):
+    D = opnet.shape_difference(base_basis, base, kind)
+    if kind == "area":
+        np.testing.assert_allclose(D, np.eye(base_basis.k), atol=1e-12)
+    else:  # singular on the constant function: identity on the other modes
+        np.testing.assert_allclose(D[1:, 1:], np.eye(base_basis.k - 1), atol=1e-10)
+        assert np.abs(D[0]).max() < 1e-10 and np.abs(D[:, 0]).max() < 1e-10
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_invariant_to_rigid_motions_of_target(base_basis, targets, kind):
+    target = targets[2]
+    R = Rotation.random(random_state=1).as_matrix()
+    moved = target.with_vertices(target.vertices @ R.T + np.array([3.0, -1.0, 20.0]))
+    D = opnet.shape_difference(base_basis, target, kind)
+    assert rel(opnet.shape_difference(base_basis, moved, kind), D) < 1e-10
+    assert np.abs(D - np.eye(base_basis.k)).max() > 1e-2  # and it does see the deformation
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_matches_slow_dense_formula_with_a_permuted_target(base, base_basis, targets, kind):
+    """Explicit path with a vertex map, fast path, and the dense paper formula all agree."""
+    target = targets[2]
+    perm = np.random.default_rng(0).permutation(base.n_vertices)  # target vertex p is base vertex perm[p]
+    shuffled = opnet.Mesh(target.vertices[perm], np.argsort(perm)[target.faces])
+    dense = dense_shape_difference(base_basis, shuffled, kind, perm)
+    fmap = opnet.fmap_from_p2p(base_basis, opnet.eigenbasis(shuffled, shuffled.n_vertices), perm)
+    assert rel(opnet.shape_difference(base_basis, shuffled, kind, fmap=fmap), dense) < 1e-8
+    assert rel(opnet.shape_difference(base_basis, target, kind), dense) < 1e-8
+
+
+def test_area_and_conformal_are_the_paper_closed_forms(base_basis, targets):
+    """Eq. 3 ``D^A = Cᵀ C`` and eq. 4 ``D^C = Λ_0⁺ Cᵀ Λ_i C``, with a truncated target basis."""
+    target_basis = opnet.eigenbasis(targets[0], 80)
+    fmap = opnet.identity_fmap(base_basis, target_basis)
+    C = fmap.matrix
+    D_A = opnet.shape_difference(base_basis, targets[0], "area", fmap=fmap)
+    D_C = opnet.shape_difference(base_basis, targets[0], "conformal", fmap=fmap)
+    np.testing.assert_allclose(D_A, C.T @ C, atol=1e-10)
+    lam0_pinv = np.diag(np.r_[0.0, 1.0 / base_basis.evals[1:]])
+    np.testing.assert_allclose(D_C, lam0_pinv @ C.T @ np.diag(target_basis.evals) @ C, atol=1e-8 * np.abs(D_C).max())
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_truncated_target_basis_converges_to_full(base_basis, targets, kind):
+    fast = opnet.shape_difference(base_basis, targets[1], kind)
+    errors = []
+    for k_i in (40, 150, targets[1].n_vertices):
+        tb = opnet.eigenbasis(targets[1], k_i)
+        errors.append(rel(opnet.shape_difference(base_basis, targets[1], kind, fmap=opnet.identity_fmap(base_basis, tb)), fast))
+    assert errors[2] < 1e-9
+    assert errors[1] < errors[0]
+
+
+def test_soft_map_equals_the_point_map_it_encodes(base_basis, targets):
+    tb = opnet.eigenbasis(targets[0], 50)
+    p2p = np.random.default_rng(3).integers(0, base_basis.mesh.n_vertices, targets[0].n_vertices)
+    P = sp.csr_matrix((np.ones(len(p2p)), (np.arange(len(p2p)), p2p)), shape=(len(p2p), base_basis.mesh.n_vertices))
+    hard = opnet.fmap_from_p2p(base_basis, tb, p2p).matrix
+    np.testing.assert_allclose(opnet.fmap_from_soft_map(base_basis, tb, P).matrix, hard, atol=1e-13)
+    np.testing.assert_allclose(opnet.fmap_from_soft_map(base_basis, tb, P.toarray()).matrix, hard, atol=1e-13)
+
+
+def test_fmap_transports_functions(base, base_basis, targets):
+    """With the identity map and a full target basis, C carries f = Φ0 a to the same vertex values."""
+    tb = opnet.eigenbasis(targets[0], targets[0].n_vertices)
+    fmap = opnet.identity_fmap(base_basis, tb)
+    a = np.random.default_rng(0).normal(size=base_basis.k)
+    np.testing.assert_allclose(tb.evecs @ fmap.transfer(a), base_basis.evecs @ a, atol=1e-9)
+
+
+def test_batched_equals_single(base_basis, targets):
+    V = np.stack([t.vertices for t in targets])
+    Ds = opnet.shape_differences(base_basis, V, progress=False, batch_size=2)
+    assert Ds.shape == (3, 3, base_basis.k, base_basis.k)
+    for b, t in enumerate(targets):
+        for c, kind in enumerate(KINDS):
+            np.testing.assert_allclose(Ds[b, c], opnet.shape_difference(base_basis, t, kind), atol=1e-12)
+
+
+class GramInnerProduct(opnet.InnerProduct):
+    """A user-defined inner product in a few lines: Theorem 1's G = Φᵀ A X Xᵀ A Φ."""
+
+    name = "gram"
+
+    def project(self, vertices, faces, evecs):
+        F = evecs.T @ (opnet.vertex_areas(vertices, faces)[:, None] * vertices)
+        return F @ F.T
+
+
+def test_user_defined_inner_product(base, base_basis, targets):
+    D = opnet.shape_difference(base_basis, targets[0], GramInnerProduct())
+    assert np.linalg.matrix_rank(D, tol=1e-8 * np.abs(D).max()) <= 3
+    tb = opnet.eigenbasis(targets[0], targets[0].n_vertices)
+    G0 = opnet.gram_matrix(base_basis, base.vertices)
+    Gi = opnet.gram_matrix(tb, targets[0].vertices)
+    C = opnet.identity_fmap(base_basis, tb).matrix
+    np.testing.assert_allclose(D, opnet.pinv_psd(G0) @ C.T @ Gi @ C, atol=1e-8 * np.abs(D).max())
+    batch = opnet.shape_differences(base_basis, targets[0].vertices[None], kinds=[GramInnerProduct()], progress=False)
+    np.testing.assert_allclose(batch[0, 0], D, atol=1e-12)
+
+
+def test_bad_inputs_get_clear_errors(base, base_basis, targets):
+    with pytest.raises(ValueError, match="unknown shape-difference kind"):
+        opnet.shape_difference(base_basis, targets[0], "volume")
+    small = opnet.data.toy.capsule("quick").with_vertices(base.vertices)
+    with pytest.raises(ValueError, match="fmap"):
+        opnet.shape_difference(base_basis, opnet.Mesh(small.vertices[:-4], small.faces[np.all(small.faces < small.n_vertices - 4, axis=1)], keep_largest_component=True), "area")
+    with pytest.raises(TypeError, match="Eigenbasis"):
+        opnet.shape_difference(base.vertices, targets[0], "area")
+    other = opnet.eigenbasis(base, 10)
+    with pytest.raises(ValueError, match="fmap.source"):
+        opnet.shape_difference(base_basis, targets[0], "area", fmap=opnet.identity_fmap(other, opnet.eigenbasis(targets[0], 10)))
+    with pytest.raises(ValueError, match=r"\(B, \d+, 3\)"):
+        opnet.shape_differences(base_basis, base.vertices)
+    with pytest.raises(TypeError, match="sequence"):
+        opnet.shape_differences(base_basis, base.vertices[None], kinds="area")
+    with pytest.raises(ValueError, match="row-stochastic"):
+        opnet.fmap_from_soft_map(base_basis, other, np.ones((base.n_vertices, base.n_vertices)))
+    with pytest.raises(ValueError, match="source vertex"):
+        opnet.fmap_from_p2p(base_basis, other, np.full(base.n_vertices, base.n_vertices))
+
+
+def test_distortion_function_finds_the_deformed_region(base, base_basis, targets):
+    """The leading eigenfunction of D^A peaks on the bulge (z ≈ -0.6), not on the bent top."""
+    D = opnet.shape_difference(base_basis, targets[1], "area")
+    f = opnet.distortion_function(D, base_basis)
+    z = base.vertices[:, 2]
+    assert abs(z[np.argmax(f)] - (-0.6)) < 0.3
+    assert np.isclose(np.sum(base.mass * f**2), 1.0)
