@@ -27,7 +27,7 @@ target is missed (or with ``--profile``) the fast path is profiled with cProfile
 
 Run::
 
-    .venv/bin/python benchmarks/shape_differences.py            # full run (~1 min on 2 cores)
+    .venv/bin/python benchmarks/shape_differences.py            # full run (~30 s on 2 idle cores)
     .venv/bin/python benchmarks/shape_differences.py --quick    # smoke run (< 30 s)
     .venv/bin/python benchmarks/shape_differences.py --json results.json --profile
 """
@@ -199,22 +199,6 @@ def profile_fast(base_basis, shapes, batch_size, top=18):
 
 # ---- report ------------------------------------------------------------------------------------------------
 
-def cpu_busy_fraction(window: float = 1.0) -> float | None:
-    """Fraction of all CPUs busy over ``window`` seconds (Linux ``/proc/stat``), or ``None`` elsewhere."""
-    def snap():
-        with open("/proc/stat") as f:
-            vals = [int(x) for x in f.readline().split()[1:]]
-        return sum(vals), vals[3] + vals[4]  # total, idle + iowait
-
-    try:
-        t0, i0 = snap()
-        time.sleep(window)
-        t1, i1 = snap()
-    except (OSError, ValueError, IndexError):
-        return None
-    return 1.0 - (i1 - i0) / max(t1 - t0, 1)
-
-
 class OtherLoad:
     """CPU time used by *other* processes while the benchmark runs, as a fraction of all CPUs (Linux)."""
 
@@ -254,8 +238,10 @@ def machine_info(pyfm_version):
     }
     if hasattr(os, "getloadavg"):
         info["loadavg_1min_at_start"] = round(os.getloadavg()[0], 2)
-    busy = cpu_busy_fraction()
-    if busy is not None:
+    probe = OtherLoad()
+    time.sleep(1.0)
+    busy = probe.fraction()
+    if busy is not None:  # CPU used by other processes over one second before the benchmark
         info["cpu_busy_at_start"] = f"{100 * busy:.0f} %"
     try:  # optional: which BLAS and how many threads
         from threadpoolctl import threadpool_info
@@ -307,21 +293,21 @@ def main(argv=None):
     n_shapes = args.n_shapes or (100 if args.quick else 500)
     n_explicit = args.n_explicit or (3 if args.quick else 5)
 
+    fns, pyfm_note = import_pyfm()
+    info = machine_info(fns[2] if fns else None)
+    busy = "cpu_busy_at_start" in info and float(info["cpu_busy_at_start"].rstrip(" %")) > 20
+    if busy:
+        print(
+            f"WARNING: {info['cpu_busy_at_start']} of the CPUs were busy with other processes just before the "
+            "benchmark started; the timings below may be pessimistic: rerun on an idle machine.\n",
+            flush=True,
+        )
     monitor = OtherLoad()
     base = toy.capsule(args.preset)
     base_basis = opnet.eigenbasis(base, args.k)
     shapes = make_shapes(base, max(n_shapes, n_explicit), args.seed)
     for v in shapes[:n_explicit]:
         base.with_vertices(v)  # validates (no degenerate faces)
-    fns, pyfm_note = import_pyfm()
-    info = machine_info(fns[2] if fns else None)
-    busy = "cpu_busy_at_start" in info and float(info["cpu_busy_at_start"].rstrip(" %")) > 20
-    if busy:
-        print(
-            f"WARNING: {info['cpu_busy_at_start']} of the CPUs were busy just before the benchmark started: other "
-            "processes are using them and the timings below will be pessimistic; rerun on an idle machine.\n",
-            flush=True,
-        )
 
     print(f"# Shape-difference benchmark{' (--quick)' if args.quick else ''}\n")
     print(

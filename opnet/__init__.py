@@ -11,6 +11,7 @@ Public API::
     Dt    = opnet.interpolate(D0, D1, t, scheme="multiplicative" | "linear")
     DX    = opnet.analogy(DA, DB, DC)          # D_X = D_C D_A⁺ D_B
 """
+from . import data
 from .algebra import analogy, interpolate, log_difference, relative_difference
 from .fmaps import FunctionalMap, fmap_from_p2p, fmap_from_soft_map, identity_fmap
 from .gram import gram_matrix, recover_embedding
@@ -30,6 +31,7 @@ from .spectral import Eigenbasis, cotan_edge_weights, eigenbasis, vertex_areas
 __version__ = "0.1.0"
 
 __all__ = [
+    "data",
     "Mesh", "MeshError", "load_mesh",
     "Eigenbasis", "eigenbasis", "vertex_areas", "cotan_edge_weights",
     "FunctionalMap", "fmap_from_p2p", "fmap_from_soft_map", "identity_fmap",

@@ -1,12 +1,17 @@
-"""The algebra of shape differences: functoriality (eq. 6), interpolation (eq. 7), analogy.
+"""The algebra of shape differences: functoriality (eq. 5), interpolation (eq. 6), analogy (section 7).
+
+Equation numbers are those of the paper as typeset (eq. 1 functional map, 2 shape
+difference, 3–4 area and conformal, 5 functoriality, 6 interpolation, 7–8 extrinsic, 9 loss).
 
 Conformal and extrinsic differences are singular (the constant function is in the
 kernel of ``Λ_0`` and of ``Φ_0ᵀ E^D Φ_0``) and not symmetric, so a plain matrix
-logarithm fails on them. Each ``D = K_0⁺ M`` with ``K_0``, ``M`` symmetric PSD with the
-same kernel ``Z`` satisfies ``D Z = 0`` and ``Zᵀ D = 0``; on the complement ``Q`` of
-``Z``, ``B = Qᵀ D Q`` is similar to the SPD matrix ``K_0^{-1/2} M K_0^{-1/2}``, so it has
-positive real eigenvalues and a real logarithm. :func:`interpolate` works on ``B``
-and maps back with ``D(t) = Q exp(...) Qᵀ``.
+logarithm fails on them. Every ``D = K_0⁺ M`` (``K_0``, ``M`` symmetric PSD) has the kernel
+``Z`` of ``K_0`` as a *left* kernel: ``Zᵀ D = 0``. With ``Q`` an orthonormal complement of
+``Z``, ``D = Q (B Qᵀ + x Zᵀ)`` where ``B = Qᵀ D Q`` equals ``K_0'^{-1} M'`` on the complement,
+so it is similar to the SPD matrix ``K_0'^{-1/2} M' K_0'^{-1/2}`` and has positive real
+eigenvalues and a real logarithm. ``x = Qᵀ D Z`` is zero for exact functional maps (the
+constant function maps to a constant) and small for computed ones.
+:func:`interpolate` interpolates ``B`` multiplicatively and ``x`` linearly.
 """
 from __future__ import annotations
 
@@ -25,42 +30,48 @@ def _as_operator(D, name: str) -> np.ndarray:
     return D
 
 
-def _common_range(Ds, rtol: float = 1e-8) -> np.ndarray:
-    """Orthonormal ``Q`` ``(k, r)`` spanning the complement of the common left/right kernel of ``Ds``."""
-    stacked = np.concatenate([m for D in Ds for m in (D, D.T)], axis=0)
+def _left_kernel_split(Ds, rtol: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
+    """``(Q, Z)``: ``Z`` spans the common left kernel (``Zᵀ D = 0`` for all ``Ds``), ``Q`` its orthonormal complement."""
+    stacked = np.concatenate([D.T for D in Ds], axis=0)  # z with Dᵀ z = 0 for every D
     _, s, Vt = np.linalg.svd(stacked)
-    return Vt[s > rtol * s.max()].T
+    rank = int(np.sum(s > rtol * s.max())) if s.size and s.max() > 0 else 0
+    return Vt[:rank].T, Vt[rank:].T
 
 
-def log_difference(D, Q: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Real logarithm of a shape difference on its range: ``(log B, Q)`` with ``D = Q B Qᵀ``.
+def _log_positive(B: np.ndarray) -> np.ndarray:
+    """Real logarithm of a matrix similar to an SPD one, via its eigen-decomposition."""
+    mu, V = np.linalg.eig(B)
+    scale = np.abs(mu).max()
+    if np.any(mu.real <= 1e-12 * scale) or np.any(np.abs(mu.imag) > 1e-8 * scale):
+        raise ValueError(
+            "this operator has non-positive or complex eigenvalues off its kernel, so it has no real logarithm and "
+            "cannot be interpolated multiplicatively (is it a shape difference?); use scheme='linear'."
+        )
+    V = V.real
+    return V @ np.diag(np.log(mu.real)) @ np.linalg.inv(V)
 
-    ``Q`` ``(k, r)`` defaults to the complement of ``D``'s kernel. Raises ``ValueError``
-    if ``D`` has a non-positive or complex eigenvalue there (it then is no shape
-    difference, and only linear interpolation applies).
+
+def log_difference(D) -> tuple[np.ndarray, np.ndarray]:
+    """Real logarithm of a shape difference off its kernel: ``(log B, Q)`` with ``B = Qᵀ D Q``.
+
+    ``Q`` ``(k, r)`` is an orthonormal complement of ``D``'s left kernel (the constant
+    function for conformal and extrinsic differences; nothing for area ones). ``log B``
+    ``(r, r)`` lives in the Lie algebra where eq. 6 interpolates linearly.
     """
     D = _as_operator(D, "D")
-    Q = _common_range([D]) if Q is None else Q
-    B = Q.T @ D @ Q
-    if not np.allclose(Q @ B @ Q.T, D, atol=1e-8 * np.abs(D).max()):
-        raise ValueError("the operators do not share their kernel, so they are not differences from one base shape.")
-    ev = np.linalg.eigvals(B)
-    if np.any(ev.real <= 0) or np.any(np.abs(ev.imag) > 1e-6 * np.abs(ev).max()):
-        raise ValueError(
-            "this operator has non-positive or complex eigenvalues on its range, so it has no real logarithm and "
-            "cannot be interpolated multiplicatively; use scheme='linear'."
-        )
-    L = scipy.linalg.logm(B)
-    return np.real(L), Q
+    Q, _ = _left_kernel_split([D])
+    if Q.shape[1] == 0:
+        raise ValueError("D is zero: it has no logarithm (a k = 1 conformal or extrinsic difference is always 0).")
+    return _log_positive(Q.T @ D @ Q), Q
 
 
 def interpolate(D0, D1, t, scheme: str = "multiplicative") -> np.ndarray:
     """Interpolate two shape differences of the same kind and base.
 
-    ``scheme="multiplicative"`` (eq. 7): ``D(t) = exp((1 − t) log D0 + t log D1)``,
-    evaluated on the common range of ``D0`` and ``D1`` (see the module docstring), so the
-    result is real and equals ``D0`` at ``t = 0`` and ``D1`` at ``t = 1``.
-    ``scheme="linear"``: ``(1 − t) D0 + t D1``, for comparison (paper, appendix E).
+    ``scheme="multiplicative"`` (eq. 6): ``D(t) = exp((1 − t) log D0 + t log D1)``,
+    evaluated off the common kernel (see the module docstring) so that the result is
+    real and equals ``D0`` at ``t = 0`` and ``D1`` at ``t = 1`` also for singular
+    operators. ``scheme="linear"``: ``(1 − t) D0 + t D1``, for comparison (paper, appendix E).
 
     ``t`` is a scalar (returns ``(k, k)``) or a 1-d array (returns ``(len(t), k, k)``);
     values outside ``[0, 1]`` extrapolate.
@@ -74,10 +85,13 @@ def interpolate(D0, D1, t, scheme: str = "multiplicative") -> np.ndarray:
     if scheme == "linear":
         out = (1 - ts)[:, None, None] * D0 + ts[:, None, None] * D1
     elif scheme == "multiplicative":
-        Q = _common_range([D0, D1])
-        L0, _ = log_difference(D0, Q)
-        L1, _ = log_difference(D1, Q)
-        out = np.stack([Q @ scipy.linalg.expm((1 - s) * L0 + s * L1) @ Q.T for s in ts])
+        Q, Z = _left_kernel_split([D0, D1])
+        if Q.shape[1] == 0:
+            out = np.zeros((len(ts), *D0.shape))
+        else:
+            L0, L1 = (_log_positive(Q.T @ D @ Q) for D in (D0, D1))
+            x0, x1 = Q.T @ D0 @ Z, Q.T @ D1 @ Z
+            out = np.stack([Q @ (scipy.linalg.expm((1 - s) * L0 + s * L1) @ Q.T + ((1 - s) * x0 + s * x1) @ Z.T) for s in ts])
     else:
         raise ValueError(f"scheme must be 'multiplicative' or 'linear', got {scheme!r}.")
     return out[0] if np.ndim(t) == 0 else out
@@ -97,10 +111,13 @@ def analogy(DA, DB, DC) -> np.ndarray:
 
 
 def relative_difference(D0i, D0j, C0i) -> np.ndarray:
-    """Functoriality (eq. 6): ``D_ij = C_0i D_0i⁺ D_0j C_0i⁻¹``, the difference of ``S_j`` seen from ``S_i``.
+    """Functoriality (eq. 5): ``D_ij = C_0i D_0i⁺ D_0j C_0i⁻¹``, the difference of ``S_j`` seen from ``S_i``.
 
     ``C0i`` ``(k_i, k_0)`` is the functional map from the base to ``S_i`` (a matrix or
     :class:`opnet.FunctionalMap`); a non-square one is inverted in the least-squares sense.
+    For conformal and extrinsic differences the identity holds modulo constants: row 0
+    of the result (the constant component, which those inner products do not see) is
+    not the one ``S_i`` would compute as a base.
     """
     C = np.asarray(getattr(C0i, "matrix", C0i), dtype=np.float64)
     D0i, D0j = _as_operator(D0i, "D0i"), _as_operator(D0j, "D0j")

@@ -25,6 +25,13 @@ class FunctionalMap:
     source: Eigenbasis
     target: Eigenbasis
 
+    def __post_init__(self):
+        _check_bases(self.source, self.target)
+        shape = (self.target.k, self.source.k)
+        if np.shape(self.matrix) != shape:
+            raise ValueError(f"a functional map from this source to this target must be (k_target, k_source) = {shape}, "
+                             f"got {np.shape(self.matrix)}.")
+
     def transfer(self, coeffs: np.ndarray) -> np.ndarray:
         """Carry source coefficients ``(k_source, ...)`` to target coefficients ``(k_target, ...)``."""
         return self.matrix @ coeffs

@@ -8,12 +8,18 @@ from .spectral import Eigenbasis
 __all__ = ["gram_matrix", "recover_embedding"]
 
 
+def _check_basis(basis) -> None:
+    if not isinstance(basis, Eigenbasis):
+        raise TypeError(f"basis must be an opnet.Eigenbasis (opnet.eigenbasis(mesh, k)), got {type(basis).__name__}.")
+
+
 def gram_matrix(basis: Eigenbasis, X: np.ndarray) -> np.ndarray:
     """``G = Φᵀ A X Xᵀ A Φ`` ``(k, k)`` for coordinates ``X`` ``(n, 3)`` on ``basis``'s mesh.
 
     Formed as ``F Fᵀ`` with ``F = Φᵀ A X`` ``(k, 3)``: rank at most 3, invariant to
     rotations of ``X``.
     """
+    _check_basis(basis)
     X = np.asarray(X, dtype=np.float64)
     if X.ndim != 2 or X.shape[0] != basis.evecs.shape[0]:
         raise ValueError(f"X must have shape ({basis.evecs.shape[0]}, d) to match the basis, got {X.shape}.")
@@ -29,8 +35,11 @@ def recover_embedding(G: np.ndarray, basis: Eigenbasis, dim: int = 3) -> np.ndar
     orthogonal transformation (a rotation, possibly with a reflection, which ``G``
     cannot see). With a full basis the recovery is exact up to that transformation.
     """
+    _check_basis(basis)
     G = np.asarray(G, dtype=np.float64)
     k = basis.k
+    if not isinstance(dim, (int, np.integer)) or not 1 <= dim <= k:
+        raise ValueError(f"dim must be an integer in [1, k={k}], got {dim!r}.")
     if G.shape != (k, k):
         raise ValueError(f"G must be ({k}, {k}) to match the basis, got {G.shape}.")
     w, U = np.linalg.eigh(0.5 * (G + G.T))

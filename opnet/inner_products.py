@@ -79,13 +79,13 @@ class ConformalInnerProduct(InnerProduct):
     def project(self, vertices, faces, evecs):
         edges = unique_edges(faces)
         diff = evecs[edges[:, 0]] - evecs[edges[:, 1]]  # (e, k)
-        return _weighted_gram(diff, cotan_edge_weights(vertices, faces, edges))
+        return _weighted_gram(diff, cotan_edge_weights(vertices, faces))
 
     project_batch = project
 
 
 class ExtrinsicInnerProduct(InnerProduct):
-    """The paper's extrinsic inner product ``M = E^D`` (eq. for ``E^D``).
+    """The paper's extrinsic inner product ``M = E^D`` (eq. 7; the difference is eq. 8).
 
     ``E(i, j) = ‖v_i − v_j‖² A_i A_j`` and ``E^D = diag(E 1) − E`` is the Laplacian of the
     complete graph with weights ``E``. Since ``E = u aᵀ + a uᵀ − 2 Y Yᵀ`` with

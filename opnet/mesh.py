@@ -14,7 +14,7 @@ import potpourri3d as pp3d
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["Mesh", "MeshError", "load_mesh", "unique_edges", "face_areas"]
+__all__ = ["Mesh", "MeshError", "load_mesh", "unique_edges", "edge_face_counts", "face_areas", "degenerate_faces"]
 
 _LOADABLE = (".ply", ".obj", ".off", ".stl")
 
@@ -30,10 +30,21 @@ def face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return 0.5 * np.linalg.norm(cross, axis=-1)
 
 
+def degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Mask ``(..., m)`` of faces whose area is zero relative to the bounding box of their shape."""
+    diag2 = np.sum((vertices.max(-2) - vertices.min(-2)) ** 2, axis=-1)
+    return face_areas(vertices, faces) <= 1e-12 * diag2[..., None]
+
+
+def edge_face_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Undirected edges ``(e, 2)`` (sorted, ``i < j``) and the number of faces on each ``(e,)``."""
+    e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    return np.unique(e, axis=0, return_counts=True)
+
+
 def unique_edges(faces: np.ndarray) -> np.ndarray:
     """Undirected edges ``(e, 2)`` of a triangle list, each once, sorted ``i < j``."""
-    e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    return np.unique(e, axis=0)
+    return edge_face_counts(faces)[0]
 
 
 def _as_vertices(vertices) -> np.ndarray:
@@ -160,16 +171,14 @@ class Mesh:
                 f"{repeated.sum()} faces repeat a vertex (first: face {np.flatnonzero(repeated)[0]} = {f[repeated][0].tolist()}); "
                 "remove degenerate faces, e.g. trimesh's mesh.update_faces(mesh.nondegenerate_faces())."
             )
-        diag2 = float(np.sum((v.max(0) - v.min(0)) ** 2))
-        tiny = face_areas(v, f) <= 1e-12 * diag2
+        tiny = degenerate_faces(v, f)
         if tiny.any():
             raise MeshError(
                 f"{tiny.sum()} faces have zero area (first: face {np.flatnonzero(tiny)[0]}); cotan weights are undefined "
                 "there. Remove them or merge their collinear/duplicate vertices (trimesh: merge_vertices, "
                 "update_faces(nondegenerate_faces()))."
             )
-        e = np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-        _, counts = np.unique(e, axis=0, return_counts=True)
+        _, counts = edge_face_counts(f)
         if (counts > 2).any():
             raise MeshError(
                 f"{(counts > 2).sum()} edges are shared by more than two faces (non-manifold); the cotan Laplacian "
@@ -226,7 +235,7 @@ def load_mesh(path, **kwargs) -> Mesh:
     if not path.is_file():
         raise FileNotFoundError(f"no mesh file at '{path}'.")
     try:
-        tm = trimesh.load(path, force="mesh", process=False)
+        tm = trimesh.load(path, force="mesh", process=False, maintain_order=True)
         if path.suffix.lower() == ".stl":
             tm.merge_vertices()
     except Exception as exc:

@@ -1,9 +1,9 @@
-"""Rigid alignment (Kabsch, no reflections) and the paper's reconstruction metrics (section 6)."""
+"""Rigid alignment (Kabsch, no reflections) and the paper's reconstruction metrics (section 6, eq. 9)."""
 from __future__ import annotations
 
 import numpy as np
 
-from .mesh import unique_edges
+from .mesh import edge_face_counts, unique_edges
 
 __all__ = ["kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume"]
 
@@ -38,31 +38,51 @@ def rigid_align(X, Y) -> np.ndarray:
 
 
 def d_R(X_gt, X_recon) -> np.ndarray:
-    """Eq. 8: mean squared vertex error after rigidly aligning ``X_recon`` to ``X_gt`` (length²)."""
+    """Eq. 9 (the loss ``L``): mean squared vertex error after rigidly aligning ``X_recon`` to ``X_gt`` (length²)."""
     X_gt, X_recon = _pair(X_gt, X_recon)
     return np.mean(np.sum((rigid_align(X_recon, X_gt) - X_gt) ** 2, axis=-1), axis=-1)
 
 
+def _faces_for(X: np.ndarray, faces) -> np.ndarray:
+    f = np.asarray(faces)
+    if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu" or f.min() < 0 or f.max() >= X.shape[-2]:
+        raise ValueError(f"faces must be an (m, 3) integer array indexing the {X.shape[-2]} vertices.")
+    return f
+
+
 def mesh_volume(vertices, faces) -> np.ndarray:
-    """Signed enclosed volume ``(...)`` of closed meshes ``(..., n, 3)`` (divergence theorem; length³)."""
-    v = np.asarray(vertices, dtype=np.float64)[..., faces, :]
+    """Signed enclosed volume ``(...)`` of closed meshes ``(..., n, 3)`` (divergence theorem; length³).
+
+    Positive for outward-oriented faces. Only meaningful for a closed surface.
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    v = v[..., _faces_for(v, faces), :]
     return np.einsum("...i,...i->...", v[..., 0, :], np.cross(v[..., 1, :], v[..., 2, :])).sum(-1) / 6.0
 
 
 def d_V(X_gt, X_recon, faces) -> np.ndarray:
-    """Relative volume error ``|V(S_gt) − V(S_recon)| / |V(S_gt)|`` (closed meshes sharing ``faces``)."""
+    """Relative volume error ``| |V(S_gt)| − |V(S_recon)| | / |V(S_gt)|`` of closed meshes sharing ``faces``.
+
+    Volumes are taken unsigned, so a mirror image has the same volume. Raises
+    ``ValueError`` for an open mesh, whose enclosed volume is undefined.
+    """
     X_gt, X_recon = _pair(X_gt, X_recon)
-    v_gt = mesh_volume(X_gt, faces)
-    return np.abs(v_gt - mesh_volume(X_recon, faces)) / np.abs(v_gt)
+    f = _faces_for(X_gt, faces)
+    if np.any(edge_face_counts(f)[1] != 2):
+        raise ValueError("d_V needs a closed mesh (every edge in exactly two faces); this one has boundary edges.")
+    v_gt = np.abs(mesh_volume(X_gt, f))
+    return np.abs(v_gt - np.abs(mesh_volume(X_recon, f))) / v_gt
 
 
 def d_E(X_gt, X_recon, faces) -> np.ndarray:
     """Mean relative edge-length error ``mean |l_gt − l_recon| / l_gt`` over the unique edges of ``faces``."""
     X_gt, X_recon = _pair(X_gt, X_recon)
-    e = unique_edges(np.asarray(faces))
+    e = unique_edges(_faces_for(X_gt, faces))
 
     def lengths(X):
         return np.linalg.norm(X[..., e[:, 0], :] - X[..., e[:, 1], :], axis=-1)
 
     l_gt = lengths(X_gt)
+    if np.any(l_gt == 0):
+        raise ValueError("the ground truth has zero-length edges, so relative edge errors are undefined.")
     return np.mean(np.abs(l_gt - lengths(X_recon)) / l_gt, axis=-1)

@@ -1,4 +1,4 @@
-"""Shape difference operators ``D^K = K_0⁺ (Cᵀ K_i C)`` (eqs. 2–4 and the extrinsic eq. of the paper).
+"""Shape difference operators ``D^K = K_0⁺ (Cᵀ K_i C)`` (eqs. 2–4 and 7–8 of the paper).
 
 Two ways to evaluate ``Cᵀ K_i C``:
 
@@ -17,7 +17,7 @@ from tqdm.auto import tqdm
 
 from .fmaps import FunctionalMap
 from .inner_products import get_inner_product
-from .mesh import Mesh
+from .mesh import Mesh, degenerate_faces
 from .spectral import Eigenbasis
 
 __all__ = ["shape_difference", "shape_differences", "distortion_function", "KINDS", "pinv_psd"]
@@ -25,13 +25,15 @@ __all__ = ["shape_difference", "shape_differences", "distortion_function", "KIND
 KINDS = ("area", "conformal", "extrinsic")
 
 
-def pinv_psd(K: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
+def pinv_psd(K: np.ndarray, rtol: float | None = None) -> np.ndarray:
     """Moore–Penrose pseudo-inverse of a symmetric PSD matrix ``(k, k)``.
 
     Eigenvalues below ``rtol`` times the largest are treated as zero (e.g. the constant
-    function in the kernel of ``Λ`` or of ``Φᵀ E^D Φ``).
+    function in the kernel of ``Λ`` or of ``Φᵀ E^D Φ``, which is ~1e-16 relative in
+    practice). The default ``10 k ε`` keeps the genuine modes of very thin meshes.
     """
     K = 0.5 * (K + K.T)
+    rtol = 10 * len(K) * np.finfo(float).eps if rtol is None else rtol
     w, U = np.linalg.eigh(K)
     keep = w > rtol * max(w.max(), 0.0)
     return (U[:, keep] / w[keep]) @ U[:, keep].T
@@ -123,6 +125,14 @@ def shape_differences(
         )
     if not np.isfinite(vertices).all():
         raise ValueError("vertices contain NaN or infinite values.")
+    bad = degenerate_faces(vertices, base.faces).any(axis=-1)
+    if bad.any():
+        raise ValueError(
+            f"{bad.sum()} shapes have zero-area faces (first: shape {np.flatnonzero(bad)[0]}); cotan weights are "
+            "undefined there. Drop or repair those shapes."
+        )
+    if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
+        raise ValueError(f"batch_size must be a positive integer, got {batch_size!r}.")
     if isinstance(kinds, str):
         raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
     ips = [get_inner_product(kind) for kind in kinds]

@@ -14,12 +14,14 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg
 
-from .mesh import Mesh, face_areas
+from .mesh import Mesh, face_areas, unique_edges
 
 __all__ = ["Eigenbasis", "eigenbasis", "cotan_edge_weights", "vertex_areas"]
 
 # Above this fraction of n the dense solver is cheaper and more reliable than ARPACK.
 _DENSE_FRACTION = 0.3
+# Largest mesh for which a failed sparse solve falls back to the dense one (memory ~ 8 n² bytes).
+_DENSE_LIMIT = 8000
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,14 +90,31 @@ def eigenbasis(mesh: Mesh, k: int) -> Eigenbasis:
     total = mesh.area
     a = mesh.mass / total  # unit total area
     W = mesh.stiffness
-    if k >= _DENSE_FRACTION * n or n < 200:
-        evals, evecs = scipy.linalg.eigh(W.toarray(), np.diag(a), subset_by_index=[0, k - 1])
-    else:
+    dense = k >= _DENSE_FRACTION * n or n < 200
+    if dense and n > _DENSE_LIMIT:
+        if k >= n - 1:
+            raise ValueError(
+                f"k={k} on a {n}-vertex mesh needs the dense solver (~{8 * n * n / 1e9:.0f} GB per n × n matrix); "
+                f"ask for k <= {n - 2} or use a mesh with at most {_DENSE_LIMIT} vertices."
+            )
+        dense = False
+    if not dense:
         # Shift-invert about a small negative shift: W + 1e-2 A is positive definite.
         v0 = np.linspace(1.0, 2.0, n)  # a fixed start vector makes ARPACK deterministic
-        evals, evecs = scipy.sparse.linalg.eigsh(W, k=k, M=sp.diags(a), sigma=-1e-2, which="LM", v0=v0)
-        order = np.argsort(evals)
-        evals, evecs = evals[order], evecs[:, order]
+        try:
+            evals, evecs = scipy.sparse.linalg.eigsh(W, k=k, M=sp.diags(a), sigma=-1e-2, which="LM", v0=v0)
+        except scipy.sparse.linalg.ArpackError as exc:
+            if n > _DENSE_LIMIT:
+                raise RuntimeError(
+                    f"ARPACK did not converge for k={k} on this {n}-vertex mesh ({exc}); check the mesh quality "
+                    "(very thin triangles) or ask for fewer eigenpairs."
+                ) from None
+            dense = True
+        else:
+            order = np.argsort(evals)
+            evals, evecs = evals[order], evecs[:, order]
+    if dense:
+        evals, evecs = scipy.linalg.eigh(W.toarray(), np.diag(a), subset_by_index=[0, k - 1])
     evals = np.maximum(evals, 0.0) / total
     evecs = evecs / np.sqrt(total)
     evals[0] = 0.0
@@ -133,12 +152,12 @@ def _scatter(values: np.ndarray, matrix: sp.spmatrix) -> np.ndarray:
     return np.asarray(matrix.T @ flat.T).T.reshape(*values.shape[:-1], matrix.shape[1])
 
 
-def cotan_edge_weights(vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """Cotan weights ``w_ij = (cot α + cot β) / 2`` per edge, ``(..., e)``.
+def cotan_edge_weights(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Cotan weights ``w_ij = (cot α + cot β) / 2`` ``(..., e)`` of the edges ``unique_edges(faces)``, in that order.
 
-    ``vertices`` is ``(..., n, 3)``; ``edges`` is :func:`opnet.mesh.unique_edges` of
-    ``faces``. The stiffness is ``W = Σ_e w_e (δ_i − δ_j)(δ_i − δ_j)ᵀ``.
+    ``vertices`` is ``(..., n, 3)``. The stiffness is ``W = Σ_e w_e (δ_i − δ_j)(δ_i − δ_j)ᵀ``.
     """
+    edges = unique_edges(faces)
     cot = _corner_cotangents(vertices, faces)
     return 0.5 * _scatter(cot.reshape(*cot.shape[:-2], -1), _corner_to_edge(faces, edges))
 

@@ -1,4 +1,4 @@
-"""Theorem 1 (Gram recovery) and the metrics of section 6 (eq. 8, d_V, d_E)."""
+"""Theorem 1 (Gram recovery) and the metrics of section 6 (eq. 9, d_V, d_E)."""
 import numpy as np
 import pytest
 from scipy.linalg import orthogonal_procrustes
@@ -75,3 +75,28 @@ def test_metrics_vanish_on_rigid_motions_and_scale_as_expected(base):
     batch = np.stack([X, s * X])
     np.testing.assert_allclose(opnet.d_E(batch, np.stack([s * X, X]), F), [s - 1, 1 - 1 / s])
     assert opnet.mesh_volume(X, F) > 0  # outward-oriented closed capsule
+
+
+def test_volume_error_is_unsigned_and_needs_a_closed_mesh(base):
+    X, F = base.vertices, base.faces
+    assert opnet.d_V(X, X * [-1.0, 1.0, 1.0], F) < 1e-12  # a mirror image has the same volume
+    assert opnet.d_V(X, X, F[:, ::-1]) < 1e-12  # so do inward-facing triangles
+    with pytest.raises(ValueError, match="closed"):
+        opnet.d_V(X, X + 1.0, F[1:])
+    Y = X.copy()
+    Y[F[0, 1]] = Y[F[0, 0]]
+    with pytest.raises(ValueError, match="zero-length"):
+        opnet.d_E(Y, X, F)
+    with pytest.raises(ValueError, match="faces"):
+        opnet.d_E(X, X, F + X.shape[0])
+
+
+def test_gram_functions_check_their_arguments(base, base_basis):
+    G = opnet.gram_matrix(base_basis, base.vertices)
+    with pytest.raises(TypeError, match="Eigenbasis"):
+        opnet.gram_matrix(base, base.vertices)
+    with pytest.raises(TypeError, match="Eigenbasis"):
+        opnet.recover_embedding(G, base_basis.evecs)
+    for dim in (0, base_basis.k + 1):
+        with pytest.raises(ValueError, match="dim"):
+            opnet.recover_embedding(G, base_basis, dim=dim)

@@ -549,3 +549,16 @@ def test_load_mesh_validates(tmp_path):
     trimesh.Trimesh(v, f, process=False).export(path)
     with pytest.raises(opnet.MeshError, match="non-manifold"):
         opnet.load_mesh(path)
+
+
+def test_load_obj_with_texture_seams_keeps_vertex_order(tmp_path):
+    """trimesh splits vertices at UV seams unless told to keep the file's order."""
+    sphere = trimesh.creation.icosphere(1)
+    lines = [f"v {x} {y} {z}" for x, y, z in sphere.vertices]
+    lines += [f"vt {u} {v}" for u, v in np.random.default_rng(0).random((3 * len(sphere.faces), 2))]
+    lines += [f"f {a + 1}/{3 * i + 1} {b + 1}/{3 * i + 2} {c + 1}/{3 * i + 3}" for i, (a, b, c) in enumerate(sphere.faces)]
+    path = tmp_path / "uv.obj"
+    path.write_text("\n".join(lines) + "\n")
+    mesh = opnet.load_mesh(path)
+    np.testing.assert_allclose(mesh.vertices, sphere.vertices)
+    np.testing.assert_array_equal(mesh.faces, sphere.faces)

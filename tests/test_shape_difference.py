@@ -1,4 +1,4 @@
-"""Shape differences against the paper's formulas (eqs. 1–4 and the extrinsic one)."""
+"""Shape differences against the paper's formulas (eqs. 1–4, 7–8)."""
 import numpy as np
 import pytest
 import scipy.linalg
@@ -174,3 +174,42 @@ def test_distortion_function_finds_the_deformed_region(base, base_basis, targets
     z = base.vertices[:, 2]
     assert abs(z[np.argmax(f)] - (-0.6)) < 0.3
     assert np.isclose(np.sum(base.mass * f**2), 1.0)
+
+
+def test_soft_maps_are_linear_in_the_correspondence(base_basis, targets):
+    """A soft map that splits each vertex between two point maps gives the average functional map."""
+    tb = opnet.eigenbasis(targets[0], 40)
+    n0, n = base_basis.mesh.n_vertices, targets[0].n_vertices
+    rng = np.random.default_rng(5)
+    p1, p2 = rng.integers(0, n0, n), rng.integers(0, n0, n)
+    P = 0.25 * sp.csr_matrix((np.ones(n), (np.arange(n), p1)), shape=(n, n0))
+    P = P + 0.75 * sp.csr_matrix((np.ones(n), (np.arange(n), p2)), shape=(n, n0))
+    expected = 0.25 * opnet.fmap_from_p2p(base_basis, tb, p1).matrix + 0.75 * opnet.fmap_from_p2p(base_basis, tb, p2).matrix
+    np.testing.assert_allclose(opnet.fmap_from_soft_map(base_basis, tb, P).matrix, expected, atol=1e-13)
+
+
+def test_thin_meshes_keep_all_their_modes():
+    """A capsule flattened 10⁶× has λ₂/λ_max ~ 6e-10 in a full basis: the pseudo-inverse must not drop real modes."""
+    flat = opnet.data.toy.capsule("quick")
+    flat = flat.with_vertices(flat.vertices * [1e-6, 1.0, 1.0])
+    b = opnet.eigenbasis(flat, flat.n_vertices)
+    for kind in opnet.KINDS:
+        D = opnet.shape_difference(b, flat, kind)
+        np.testing.assert_allclose(D[1:, 1:], np.eye(b.k - 1), atol=1e-5)
+
+
+def test_batched_path_rejects_bad_shapes_and_batch_sizes(base, base_basis):
+    V = np.stack([base.vertices, base.vertices])
+    V[1, base.faces[0]] = V[1, base.faces[0, 0]]  # collapse one triangle of shape 1
+    with pytest.raises(ValueError, match="shape 1"):
+        opnet.shape_differences(base_basis, V)
+    for bad in (0, -1, 2.5):
+        with pytest.raises(ValueError, match="batch_size"):
+            opnet.shape_differences(base_basis, base.vertices[None], batch_size=bad)
+
+
+def test_functional_maps_are_validated(base_basis):
+    with pytest.raises(ValueError, match="k_target, k_source"):
+        opnet.FunctionalMap(np.eye(5), base_basis, base_basis)
+    with pytest.raises(TypeError, match="Eigenbasis"):
+        opnet.FunctionalMap(np.eye(base_basis.k), base_basis, "target")
