@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from .mesh import unique_edges
-from .spectral import cotan_edge_weights, vertex_areas
+from .spectral import _edge_weights, vertex_areas
 
 __all__ = [
     "InnerProduct",
@@ -31,9 +31,31 @@ __all__ = [
 ]
 
 
+# Entries of the column-product table built at once in the batched product (bounds its memory to ~32 MB).
+_TABLE_ENTRIES = 4_000_000
+
+
 def _weighted_gram(evecs: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """``Φᵀ diag(w) Φ`` for weights ``(..., n)``, giving ``(..., k, k)``."""
-    return np.matmul(evecs.T, weights[..., :, None] * evecs)
+    """``Φᵀ diag(w) Φ`` for weights ``(..., n)``, giving ``(..., k, k)``.
+
+    For a batch of weight vectors the product is linear in ``w``: it is one matrix product
+    ``w @ T`` with the table ``T[p, (i, j)] = Φ[p, i] Φ[p, j]`` (upper triangle, built in
+    chunks of vertices), which runs several times faster than one product per shape.
+    """
+    if weights.ndim == 1:
+        return evecs.T @ (weights[:, None] * evecs)
+    k = evecs.shape[1]
+    iu, ju = np.triu_indices(k)
+    flat = weights.reshape(-1, weights.shape[-1])
+    upper = np.zeros((len(flat), len(iu)))
+    step = max(1, _TABLE_ENTRIES // len(iu))
+    for s in range(0, evecs.shape[0], step):
+        rows = evecs[s : s + step]
+        upper += flat[:, s : s + step] @ (rows[:, iu] * rows[:, ju])
+    out = np.empty((len(flat), k, k))
+    out[:, iu, ju] = upper
+    out[:, ju, iu] = upper
+    return out.reshape(*weights.shape[:-1], k, k)
 
 
 class InnerProduct:
@@ -79,7 +101,7 @@ class ConformalInnerProduct(InnerProduct):
     def project(self, vertices, faces, evecs):
         edges = unique_edges(faces)
         diff = evecs[edges[:, 0]] - evecs[edges[:, 1]]  # (e, k)
-        return _weighted_gram(diff, cotan_edge_weights(vertices, faces))
+        return _weighted_gram(diff, _edge_weights(vertices, faces, edges))
 
     project_batch = project
 

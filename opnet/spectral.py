@@ -127,12 +127,12 @@ def eigenbasis(mesh: Mesh, k: int) -> Eigenbasis:
 def _corner_cotangents(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """cot of each corner angle, ``(..., m, 3)``; corner c is opposite the edge (c+1, c+2)."""
     v = vertices[..., faces, :]  # (..., m, 3, 3)
+    double_area = 2.0 * face_areas(vertices, faces)  # |e1 × e2| is the same at every corner
     cots = []
     for c in range(3):
         e1 = v[..., (c + 1) % 3, :] - v[..., c, :]
         e2 = v[..., (c + 2) % 3, :] - v[..., c, :]
-        cross = np.linalg.norm(np.cross(e1, e2), axis=-1)
-        cots.append(np.einsum("...i,...i->...", e1, e2) / cross)
+        cots.append(np.einsum("...i,...i->...", e1, e2) / double_area)
     return np.stack(cots, axis=-1)
 
 
@@ -157,7 +157,11 @@ def cotan_edge_weights(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
     ``vertices`` is ``(..., n, 3)``. The stiffness is ``W = Σ_e w_e (δ_i − δ_j)(δ_i − δ_j)ᵀ``.
     """
-    edges = unique_edges(faces)
+    return _edge_weights(vertices, faces, unique_edges(faces))
+
+
+def _edge_weights(vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """:func:`cotan_edge_weights` for edges already known to be ``unique_edges(faces)``."""
     cot = _corner_cotangents(vertices, faces)
     return 0.5 * _scatter(cot.reshape(*cot.shape[:-2], -1), _corner_to_edge(faces, edges))
 
