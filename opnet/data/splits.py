@@ -1,0 +1,57 @@
+"""Splits like the paper's (held-out sub-collections, unseen subjects) and its 50-shape evaluation subset."""
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+__all__ = ["make_splits", "hausdorff", "furthest_point_subset"]
+
+
+def make_splits(subjects: np.ndarray, groups: np.ndarray, rng: np.random.Generator, *, n_test_subcollections: int = 10,
+                n_test_subjects: int = 1, n_val_subcollections: int = 3, held_out_groups=None) -> np.ndarray:
+    """Split labels ``(N,)``: ``"train"``, ``"val"``, ``"test"`` and ``"test_subjects"``.
+
+    A sub-collection is a (subject, group) pair, e.g. one person performing one action.
+    ``test_subjects`` holds every shape of ``n_test_subjects`` subjects; ``test`` holds
+    ``n_test_subcollections`` whole sub-collections of the remaining subjects (as the paper
+    holds out 10 DFAUST sequences); ``val`` holds ``n_val_subcollections`` more, for model
+    selection. Groups listed in ``held_out_groups`` (e.g. random poses) are never held out.
+    """
+    subjects, groups = np.asarray(subjects), np.asarray(groups)
+    uniq = np.unique(subjects)
+    if n_test_subjects >= len(uniq):
+        raise ValueError(f"{len(uniq)} subjects cannot leave {n_test_subjects} unseen subjects and still train.")
+    split = np.full(len(subjects), "train", dtype=object)
+    unseen = rng.choice(uniq, n_test_subjects, replace=False)
+    split[np.isin(subjects, unseen)] = "test_subjects"
+    keep = set(held_out_groups or ())
+    candidates = sorted({(s, g) for s, g in zip(subjects[split == "train"], groups[split == "train"]) if g not in keep})
+    needed = n_test_subcollections + n_val_subcollections
+    if needed > len(candidates) - 1:
+        raise ValueError(f"only {len(candidates)} sub-collections to hold {needed} out of; use a larger preset.")
+    picked = rng.choice(len(candidates), needed, replace=False)
+    for rank, c in enumerate(picked):
+        s, g = candidates[c]
+        split[(subjects == s) & (groups == g)] = "test" if rank < n_test_subcollections else "val"
+    return split.astype(str)
+
+
+def hausdorff(X: np.ndarray, Y: np.ndarray) -> float:
+    """Symmetric Hausdorff distance between point sets ``(n, 3)`` and ``(m, 3)`` (length unit of the input)."""
+    return float(max(cKDTree(Y).query(X)[0].max(), cKDTree(X).query(Y)[0].max()))
+
+
+def furthest_point_subset(vertices: np.ndarray, n: int) -> np.ndarray:
+    """Indices of ``n`` shapes ``(N, n_vertices, 3)`` chosen by furthest-point sampling on Hausdorff distance.
+
+    Starts from shape 0 and repeatedly adds the shape furthest (in Hausdorff distance)
+    from those already chosen; needs ``n · N`` distances, not the ``N²`` matrix.
+    """
+    n = min(n, len(vertices))
+    chosen = [0]
+    nearest = np.array([hausdorff(vertices[0], v) for v in vertices])
+    while len(chosen) < n:
+        nxt = int(np.argmax(nearest))
+        chosen.append(nxt)
+        nearest = np.minimum(nearest, [hausdorff(vertices[nxt], v) for v in vertices])
+    return np.array(chosen)

@@ -1,0 +1,95 @@
+"""Collections built from the anny body model (humans, heads, hands): consistent meshes, splits, determinism, caching."""
+import numpy as np
+import pytest
+import trimesh
+
+import opnet
+from opnet.data import bodies
+
+
+@pytest.fixture(scope="module")
+def root(tmp_path_factory):
+    return tmp_path_factory.mktemp("collections")
+
+
+@pytest.fixture(scope="module")
+def humans(root):
+    return opnet.data.load_collection("humans", "quick", root, progress=False)
+
+
+def test_api_fields(humans):
+    N = len(humans)
+    assert humans.vertices.shape == (N, 1229, 3) and humans.vertices.dtype == np.float32
+    assert humans.operators.shape == (N, 3, 60, 60) and humans.operators.dtype == np.float32
+    assert humans.split.shape == humans.subcollection.shape == (N,)
+    assert humans.base_basis.evecs.shape == (1229, 60)
+    assert humans.params["phenotypes"].shape == (N, 6)
+
+
+def test_shared_watertight_connectivity(humans):
+    rng = np.random.default_rng(0)
+    for i in rng.choice(len(humans), 12, replace=False):
+        mesh = humans.mesh(i)  # validates: one component, manifold, no zero-area faces
+        assert trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).is_watertight
+        assert opnet.mesh_volume(mesh.vertices, mesh.faces) > 0
+
+
+def test_operators_are_those_of_the_stored_base(humans):
+    i = humans.indices("test")[0]
+    for c, kind in enumerate(opnet.KINDS):
+        D = opnet.shape_difference(humans.base_basis, humans.mesh(i), kind)
+        np.testing.assert_allclose(humans.operators[i, c], D, atol=1e-4 * np.abs(D).max())
+    base = opnet.shape_difference(humans.base_basis, humans.base_basis.mesh, "area")
+    np.testing.assert_allclose(base, np.eye(60), atol=1e-10)
+
+
+def test_paper_like_splits(humans):
+    test_sc = set(humans.subcollection[humans.split == "test"])
+    assert len(test_sc) == 10  # ten held-out (subject, motion) sequences, as the paper's DFAUST test set
+    assert all(sc.split("/")[1] in bodies.ACTIONS for sc in test_sc)
+    train_sc = set(humans.subcollection[humans.split == "train"])
+    for held in ("val", "test", "test_subjects"):
+        assert set(humans.subcollection[humans.split == held]).isdisjoint(train_sc)
+    unseen = {sc.split("/")[0] for sc in humans.subcollection[humans.split == "test_subjects"]}
+    assert unseen.isdisjoint({sc.split("/")[0] for sc in humans.subcollection[humans.split != "test_subjects"]})
+    assert set(humans.split[humans.eval_subset]) == {"test"}
+
+
+def test_cache_is_reused_and_checked(humans, root):
+    again = opnet.data.load_collection("humans", "quick", root)
+    np.testing.assert_array_equal(again.vertices, humans.vertices)
+    npz = root / "humans-quick-1k-seed0.npz"
+    with pytest.raises(opnet.data.CollectionError, match="generator_version"):
+        opnet.data.read_collection(npz, expected_meta={"generator_version": "0"})
+
+
+def test_same_seed_same_collection(humans, tmp_path):
+    rebuilt = opnet.data.load_collection("humans", "quick", tmp_path, progress=False)
+    np.testing.assert_array_equal(rebuilt.vertices, humans.vertices)
+    np.testing.assert_array_equal(rebuilt.operators, humans.operators)
+    np.testing.assert_array_equal(rebuilt.split, humans.split)
+    other = opnet.data.load_collection("humans", "quick", tmp_path, seed=1, progress=False)
+    assert not np.array_equal(other.split, humans.split)
+
+
+def test_unknown_names_and_presets(root):
+    with pytest.raises(ValueError, match="unknown collection"):
+        opnet.data.load_collection("animals", "quick", root)
+    with pytest.raises(ValueError, match="unknown preset"):
+        opnet.data.load_collection("humans", "huge", root)
+
+
+@pytest.mark.parametrize("name, n_vertices, motions", [("heads", 4200, bodies.HEAD_EXPRESSIONS),
+                                                       ("hands", 1609, bodies.HAND_GESTURES)])
+def test_part_collections(root, name, n_vertices, motions):
+    coll = opnet.data.load_collection(name, "quick", root, progress=False)
+    assert coll.vertices.shape[1:] == (n_vertices, 3) and coll.operators.shape[1:] == (3, 60, 60)
+    assert {sc.split("/")[1] for sc in coll.subcollection} == set(motions) | {"random"}
+    assert len(set(coll.subcollection[coll.split == "test"])) == 10
+    for i in np.random.default_rng(0).choice(len(coll), 5, replace=False):
+        coll.mesh(i)  # one component, manifold, no degenerate faces
+    mid = np.flatnonzero(coll.subcollection == coll.subcollection[0])  # a sequence moves away from the base
+    drift = [np.linalg.norm(coll.operators[i, 2, 1:, 1:] - np.eye(59)) for i in mid]
+    assert max(drift) > 1.1 * min(drift)  # the peak of the expression or gesture differs from its neutral frame
+    with pytest.raises(ValueError, match="resolutions"):
+        opnet.data.load_collection(name, "quick", root, resolution="2k")

@@ -1,0 +1,224 @@
+"""Anny bodies, heads and hands (opnet.data.bodies): shapes, validity, motions, determinism."""
+import numpy as np
+import pytest
+import trimesh
+
+import opnet
+from opnet.data import bodies
+
+import torch
+
+N_BONES = 104
+
+
+@pytest.fixture(scope="module")
+def rng():
+    return np.random.default_rng(0)
+
+
+@pytest.fixture(scope="module")
+def sample():
+    """Random subjects with a mix of action frames and random poses."""
+    rng = np.random.default_rng(1)
+    poses = np.concatenate([bodies.action_poses(a, 8)[[2, 4]] for a in bodies.ACTIONS]
+                           + [bodies.random_poses(12, rng)])
+    return bodies.random_subjects(len(poses), rng), poses
+
+
+def _world_joints(subjects, poses):
+    """Posed joint positions ``(N, bones, 3)`` and bone rotations relative to the rest ``(N, bones, 3, 3)``."""
+    model = bodies.human_model("1k")
+    s = torch.from_numpy(subjects)
+    with torch.no_grad():
+        out = model(pose_parameters=torch.from_numpy(poses),
+                    phenotype_kwargs={k: s[:, i] for i, k in enumerate(bodies.PHENOTYPES)})
+    posed, rest = out["bone_poses"].numpy(), out["rest_bone_poses"].numpy()
+    turn = posed[..., :3, :3] @ np.swapaxes(rest[..., :3, :3], -1, -2)
+    return posed[..., :3, 3], turn
+
+
+def _signed_flexion(joints, turns, labels, upper, lower, end, hinge):
+    """Signed angle (degrees) between two limb segments about the posed hinge axis of ``upper``."""
+    i, j, k = (labels.index(b) for b in (upper, lower, end))
+    a, b = joints[:, j] - joints[:, i], joints[:, k] - joints[:, j]
+    axis = np.einsum("nij,j->ni", turns[:, i], hinge)
+    return np.degrees(np.arctan2(np.einsum("ni,ni->n", np.cross(a, b), axis), np.einsum("ni,ni->n", a, b)))
+
+
+# -- humans ------------------------------------------------------------------------------------
+
+def test_shapes_and_dtypes(rng):
+    assert bodies.ACTIONS and len(bodies.ACTIONS) >= 10 and len(bodies.PHENOTYPES) == 6
+    P = bodies.action_poses("walk", 5)
+    assert P.shape == (5, N_BONES, 4, 4) and P.dtype == np.float64
+    assert bodies.random_poses(3, rng).shape == (3, N_BONES, 4, 4)
+    assert np.array_equal(bodies.rest_pose(), np.broadcast_to(np.eye(4), (N_BONES, 4, 4)))
+    S = bodies.random_subjects(7, rng)
+    assert S.shape == (7, 6) and S.dtype == np.float64 and S.min() >= 0 and S.max() <= 1
+    for res, n in [("1k", 1229), ("2k", 2000), ("5k", 5000)]:
+        V = bodies.human_vertices(S[:2], P[:2], res)
+        f = bodies.human_faces(res)
+        assert V.shape == (2, n, 3) and V.dtype == np.float64
+        assert f.dtype == np.int64 and f.shape[1] == 3 and f.max() == n - 1
+    with pytest.raises(ValueError):
+        bodies.human_vertices(S[:2], P[:3])
+    with pytest.raises(ValueError):
+        bodies.action_poses("moonwalk", 4)
+    with pytest.raises(ValueError):
+        bodies.joint_poses({"knee_flex": 10})
+
+
+def test_subjects_are_adults(rng):
+    S = bodies.random_subjects(2000, rng)
+    age = S[:, bodies.PHENOTYPES.index("age")]
+    assert 0.77 <= age.min() and age.max() <= 0.86  # 20 to 70 years on anny's age axis
+    assert S[:, 0].std() > 0.25  # both genders and everything in between
+    heights = np.ptp(bodies.human_vertices(S[:200], np.repeat(bodies.rest_pose()[None], 200, 0))[..., 2], axis=1)
+    assert 1.35 < heights.min() and heights.max() < 2.1
+
+
+def test_poses_are_rotations(rng):
+    P = np.concatenate([bodies.action_poses(a, 6, amplitude=1.5) for a in bodies.ACTIONS]
+                       + [bodies.random_poses(50, rng)])
+    R = P[..., :3, :3]
+    assert np.allclose(R @ np.swapaxes(R, -1, -2), np.eye(3), atol=1e-12)
+    assert np.allclose(np.linalg.det(R), 1.0)
+    assert np.array_equal(P[..., :3, 3], np.zeros(P.shape[:-2] + (3,)))
+    assert np.array_equal(P[..., 3, :], np.broadcast_to([0.0, 0.0, 0.0, 1.0], P.shape[:-2] + (4,)))
+
+
+def test_angles_are_clipped_to_limits():
+    lo, hi = bodies.JOINT_LIMITS["knee_flex.L"]
+    over = bodies.joint_poses({"knee_flex.L": [hi + 50, hi]})
+    under = bodies.joint_poses({"knee_flex.L": [lo - 50, lo]})
+    assert np.allclose(over[0], over[1]) and np.allclose(under[0], under[1])
+
+
+def test_actions_are_smooth_loops():
+    n = 64
+    for action in bodies.ACTIONS:
+        P = bodies.action_poses(action, n)
+        R = P[:, :, :3, :3]
+        step = np.einsum("fbji,fbjk->fbik", R, np.roll(R, -1, axis=0))  # frame k to k+1, and last to first
+        angle = np.degrees(np.arccos(np.clip((np.trace(step, axis1=-2, axis2=-1) - 1) / 2, -1, 1)))
+        assert angle.max() < 20, action
+        V = bodies.human_vertices(np.tile(bodies.AVERAGE_SUBJECT, (n, 1)), P)
+        assert np.linalg.norm(np.diff(V, axis=0), axis=-1).max() < 0.15, action
+        assert np.ptp(V, axis=0).max() > 0.05, action  # it does move
+    one_shot = ("arm_raise", "knee_bend", "jumping_jacks", "punch", "one_leg_balance", "wave", "forward_bend", "kick")
+    for action in one_shot:
+        assert np.allclose(bodies.action_poses(action, 10)[0], bodies.rest_pose()), action
+    assert np.allclose(bodies.action_poses("walk", 10, amplitude=0.0), bodies.rest_pose())
+
+
+def test_meshes_valid_at_every_resolution(sample):
+    S, P = sample
+    for res in bodies.RESOLUTIONS:
+        f = bodies.human_faces(res)
+        for v in bodies.human_vertices(S, P, res):
+            opnet.Mesh(v, f)  # raises on any defect
+        rest = bodies.human_vertices(np.array([bodies.AVERAGE_SUBJECT]), bodies.rest_pose()[None], res)[0]
+        mesh = trimesh.Trimesh(rest, f, process=False)
+        assert mesh.is_watertight and len(mesh.split(only_watertight=False)) == 1
+
+
+def test_resolutions_agree(sample):
+    S, P = sample
+    V = {res: bodies.human_vertices(S, P, res) for res in bodies.RESOLUTIONS}
+    F = {res: bodies.human_faces(res) for res in bodies.RESOLUTIONS}
+    area = {res: opnet.mesh.face_areas(V[res], F[res]).sum(-1) for res in V}
+    for res in ("2k", "5k"):
+        assert np.abs(area[res] / area["1k"] - 1).max() < 0.05
+        assert np.abs(np.ptp(V[res], axis=1) - np.ptp(V["1k"], axis=1)).max() < 0.02  # metres
+        assert len(F[res]) != len(F["1k"])
+
+
+def test_knees_and_elbows_never_bend_backwards(rng):
+    overbent = bodies.joint_poses({"knee_flex.L": -90, "elbow_flex.R": -90})  # clipped to the limits
+    poses = np.concatenate([bodies.action_poses(a, 16, amplitude=1.3) for a in bodies.ACTIONS]
+                           + [bodies.random_poses(200, rng), overbent])
+    subjects = bodies.random_subjects(len(poses), rng)
+    joints, turns = _world_joints(subjects, poses)
+    labels = bodies.human_model("1k").bone_labels
+    elbow = np.array(bodies._LEFT_ELBOW_HINGE)
+    for side, mirror in (("L", np.array([1, 1, 1])), ("R", np.array([1, -1, -1]))):
+        knee = _signed_flexion(joints, turns, labels, f"upperleg01.{side}", f"lowerleg01.{side}", f"foot.{side}",
+                               np.array([1.0, 0, 0]))
+        arm = _signed_flexion(joints, turns, labels, f"upperarm01.{side}", f"lowerarm01.{side}", f"wrist.{side}",
+                              elbow * mirror)
+        assert knee.min() > 0 and knee.max() < 150, side
+        assert arm.min() > 0 and arm.max() < 150, side
+
+
+def test_no_limb_through_the_body(rng):
+    """anny's triangle-triangle test between parts that share no bone: no action frame has an
+    intersection (fingers touching each other aside), and random poses hardly ever do (a hand
+    grazing a thigh, about 1 in 4000)."""
+    from anny.utils.collision import SelfInterpenetrationModule
+
+    model = bodies.human_model("1k")
+    detector = SelfInterpenetrationModule(model)
+    faces = bodies.human_faces("1k")
+    weights, indices = model.vertex_bone_weights.numpy(), model.vertex_bone_indices.numpy()
+    main_bone = indices[np.arange(len(indices)), weights.argmax(1)]
+    finger = np.array(["finger" in label for label in model.bone_labels])[main_bone[faces[:, 0]]]
+
+    def intersects(v):
+        hit = detector.detect_self_intersections(torch.from_numpy(v)).numpy()
+        bad = np.flatnonzero(hit >= 0)
+        return not (finger[bad] & finger[hit[bad]]).all()
+
+    poses = np.concatenate([bodies.action_poses(a, 8) for a in bodies.ACTIONS])
+    subjects = bodies.random_subjects(len(poses), rng)
+    assert not any(intersects(v) for v in bodies.human_vertices(subjects, poses))
+    random = bodies.human_vertices(bodies.random_subjects(100, rng), bodies.random_poses(100, rng))
+    assert sum(intersects(v) for v in random) <= 2
+
+
+def test_deterministic():
+    S1, P1 = bodies.random_subjects(20, np.random.default_rng(5)), bodies.random_poses(20, np.random.default_rng(6))
+    S2, P2 = bodies.random_subjects(20, np.random.default_rng(5)), bodies.random_poses(20, np.random.default_rng(6))
+    assert np.array_equal(S1, S2) and np.array_equal(P1, P2)
+    assert np.array_equal(bodies.human_vertices(S1, P1, "2k"), bodies.human_vertices(S2, P2, "2k"))
+    assert np.array_equal(bodies.action_poses("punch", 12), bodies.action_poses("punch", 12))
+
+
+# -- heads -------------------------------------------------------------------------------------
+
+def test_heads(rng):
+    assert tuple(bodies.head_model().facial_action_labels) == bodies.FACIAL_ACTIONS
+    assert len(bodies.HEAD_EXPRESSIONS) >= 8
+    f = bodies.head_faces()
+    seq = bodies.expression_sequence("smile", 8)
+    assert seq.shape == (8, len(bodies.FACIAL_ACTIONS)) and np.allclose(seq[0], 0)
+    assert np.isclose(seq[4].max(), 1.0) and np.all(np.diff(seq[:5, bodies.FACIAL_ACTIONS.index("mouthSmileLeft")]) > 0)
+    W = np.concatenate([np.stack([bodies.expression_sequence(e, 2)[1] for e in bodies.HEAD_EXPRESSIONS]),
+                        bodies.random_expressions(10, rng)])
+    assert W.min() >= 0 and W.max() <= 1
+    V = bodies.head_vertices(bodies.random_subjects(len(W), rng), W)
+    assert V.shape == (len(W), f.max() + 1, 3) and V.dtype == np.float64
+    for v in V:
+        opnet.Mesh(v, f)
+    neutral = bodies.head_vertices(np.array([bodies.AVERAGE_SUBJECT]), np.zeros((1, len(bodies.FACIAL_ACTIONS))))[0]
+    nose = neutral[neutral[:, 1].argmin()]
+    assert nose[2] > 0.05 and neutral[:, 2].max() > 0.15  # upright, facing -y, neck joint at the origin
+
+
+# -- hands -------------------------------------------------------------------------------------
+
+def test_hands(rng):
+    assert len(bodies.HAND_GESTURES) >= 8
+    f = bodies.hand_faces()
+    seq = bodies.gesture_sequence("fist", 8)
+    assert seq.shape == (8, 21, 4, 4) and np.allclose(seq[0], np.eye(4))
+    P = np.concatenate([np.stack([bodies.gesture_sequence(g, 2)[1] for g in bodies.HAND_GESTURES]),
+                        bodies.random_hand_poses(10, rng)])
+    V = bodies.hand_vertices(bodies.random_subjects(len(P), rng), P)
+    assert V.shape == (len(P), f.max() + 1, 3) and V.dtype == np.float64
+    for v in V:
+        opnet.Mesh(v, f)
+    rest = bodies.hand_vertices(np.array([bodies.AVERAGE_SUBJECT]), np.eye(4)[None, None].repeat(21, 1))[0]
+    tip = rest[np.linalg.norm(rest, axis=1).argmax()]
+    assert tip[2] < -0.05 and tip[1] < -0.05  # hanging as in the A-pose: fingers down and forward
+    fist = bodies.hand_vertices(np.array([bodies.AVERAGE_SUBJECT]), bodies.gesture_sequence("fist", 2)[1:])[0]
+    assert np.linalg.norm(fist, axis=1).max() < 0.8 * np.linalg.norm(rest, axis=1).max()

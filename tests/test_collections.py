@@ -1,0 +1,168 @@
+"""Collection storage (atomic, checksummed), splits, the evaluation subset and the user-folder loader,
+on toy shapes so that these tests need no body model."""
+import json
+import multiprocessing as mp
+import os
+import signal
+import time
+
+import numpy as np
+import pytest
+import trimesh
+
+import opnet
+from opnet.data import CollectionError, toy
+from opnet.data.collections import assemble
+
+
+def toy_collection(seed=0, n_subjects=4, groups=("bend", "bulge", "both"), frames=3):
+    rng = np.random.default_rng(seed)
+    base = toy.capsule("quick")
+    V, subj, grp = [], [], []
+    for s in range(n_subjects):
+        width = rng.uniform(0.8, 1.2)
+        for g in groups:
+            for t in np.linspace(0.2, 1.0, frames):
+                v = base.vertices * [width, width, 1.0]
+                if g in ("bend", "both"):
+                    v = toy.bend(v, t * 1.2)
+                if g in ("bulge", "both"):
+                    v = toy.bulge(v, 0.4 * t)
+                V.append(v)
+                subj.append(s)
+                grp.append(g)
+    subj, grp = np.array(subj), np.array(grp)
+    split = opnet.data.make_splits(subj, grp, rng, n_test_subcollections=2, n_test_subjects=1, n_val_subcollections=1)
+    sub = np.array([f"subject{s:02d}/{g}" for s, g in zip(subj, grp)])
+    meta = dict(name="toy", preset="quick", resolution="quick", seed=seed, generator_version="test")
+    return assemble(np.stack(V), base.faces, base.vertices, split, sub, {"subject": subj}, meta, k=20, progress=False, n_eval=2)
+
+
+@pytest.fixture(scope="module")
+def coll():
+    return toy_collection()
+
+
+def test_collection_fields(coll):
+    N, n = len(coll), coll.faces.max() + 1
+    assert coll.vertices.shape == (N, n, 3) and coll.vertices.dtype == np.float32
+    assert coll.operators.shape == (N, 3, 20, 20) and coll.operators.dtype == np.float32
+    np.testing.assert_allclose(coll.operators[5, 0], opnet.shape_difference(coll.base_basis, coll.mesh(5), "area"), atol=1e-5)
+    assert set(coll.split) == {"train", "val", "test", "test_subjects"}
+
+
+def test_splits_hold_out_whole_subcollections_and_subjects(coll):
+    for held in ("test", "val", "test_subjects"):
+        held_sc = set(coll.subcollection[coll.split == held])
+        assert held_sc.isdisjoint(coll.subcollection[coll.split == "train"])
+    unseen = {s.split("/")[0] for s in coll.subcollection[coll.split == "test_subjects"]}
+    seen = {s.split("/")[0] for s in coll.subcollection[coll.split != "test_subjects"]}
+    assert unseen and unseen.isdisjoint(seen)
+    assert len(set(coll.subcollection[coll.split == "test"])) == 2
+
+
+def test_evaluation_subset_is_furthest_point_per_test_subcollection(coll):
+    sub = coll.eval_subset
+    assert (coll.split[sub] == "test").all()
+    assert len(sub) == 2 * 2  # 2 test sub-collections × 2 shapes
+    # the second pick of each sub-collection is the shape furthest from its first frame
+    for sc in set(coll.subcollection[sub]):
+        members = np.flatnonzero(coll.subcollection == sc)
+        d = [opnet.data.hausdorff(coll.vertices[members[0]], coll.vertices[m]) for m in members]
+        assert members[int(np.argmax(d))] in sub
+
+
+def test_save_and_read_round_trip(coll, tmp_path):
+    path = opnet.data.save_collection(coll, tmp_path / "toy")
+    back = opnet.data.read_collection(path, expected_meta={"seed": 0})
+    np.testing.assert_array_equal(back.vertices, coll.vertices)
+    np.testing.assert_array_equal(back.operators, coll.operators)
+    np.testing.assert_array_equal(back.split, coll.split)
+    np.testing.assert_array_equal(back.base_basis.evecs, coll.base_basis.evecs)
+    np.testing.assert_array_equal(back.params["subject"], coll.params["subject"])
+    manifest = json.loads(path.with_suffix(".json").read_text())
+    assert manifest["shapes"]["operators"] == list(coll.operators.shape)
+
+
+def test_corrupt_mismatched_and_unfinished_files_get_clear_errors(coll, tmp_path):
+    path = opnet.data.save_collection(coll, tmp_path / "toy")
+    with pytest.raises(CollectionError, match="seed=0, expected 1.*rebuild=True"):
+        opnet.data.read_collection(path, expected_meta={"seed": 1})
+    raw = bytearray(path.read_bytes())
+    raw[len(raw) // 2] ^= 0xFF
+    path.write_bytes(bytes(raw))
+    with pytest.raises(CollectionError, match="checksum"):
+        opnet.data.read_collection(path)
+    path.with_suffix(".json").unlink()
+    with pytest.raises(CollectionError, match="interrupted"):
+        opnet.data.read_collection(path)
+
+
+def _killed_midway_save(coll, path):
+    """Save a collection but stall half-way through writing its arrays, so it can be killed there."""
+
+    def half_then_stall(f, **arrays):
+        f.write(b"PK\x03\x04" + bytes(4096))  # the start of a zip archive, then nothing
+        f.flush()
+        time.sleep(60)
+
+    np.savez = half_then_stall
+    opnet.data.save_collection(coll, path)
+
+
+def test_a_killed_rebuild_leaves_nothing_that_loads(coll, tmp_path):
+    target = tmp_path / "killed"
+    opnet.data.save_collection(coll, target)  # a valid collection is being rebuilt...
+    proc = mp.get_context("fork").Process(target=_killed_midway_save, args=(coll, target))
+    proc.start()
+    deadline = time.time() + 20
+    while not list(tmp_path.glob(".killed.npz.tmp-*")) and time.time() < deadline:
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)  # ...and killed while writing its data
+    proc.join()
+    assert list(tmp_path.glob(".killed.npz.tmp-*"))  # it did die mid-write
+    with pytest.raises(CollectionError, match="interrupted"):
+        opnet.data.read_collection(target)  # neither the old nor the half-written data loads
+    opnet.data.save_collection(coll, target)  # a finished save repairs it
+    assert len(opnet.data.read_collection(target)) == len(coll)
+
+
+def test_torch_dataset(coll):
+    ds = opnet.data.OperatorDataset(coll, "train", channels=("area", "extrinsic"))
+    ops, verts = ds[0]
+    assert ops.shape == (2, 20, 20) and verts.shape == (coll.vertices.shape[1], 3)
+    assert str(ops.dtype) == "torch.float32"
+    np.testing.assert_allclose(ops[1].numpy(), coll.operators[coll.indices("train")[0], 2])
+    assert len(ds) == len(coll.indices("train"))
+    with pytest.raises(ValueError, match="channels"):
+        opnet.data.OperatorDataset(coll, "train", channels=("volume",))
+
+
+def test_user_folder_loader(tmp_path):
+    base = toy.capsule("quick")
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    for i, angle in enumerate([0.0, 0.5, 1.0, 1.5]):
+        trimesh.Trimesh(toy.bend(base.vertices, angle), base.faces, process=False).export(folder / f"pose{i}.ply")
+    (folder / "splits.csv").write_text("pose3.ply,test,pose3\npose2.ply,val,pose2\n")
+    coll = opnet.data.load_folder(folder, k=15, progress=False)
+    assert len(coll) == 4 and list(coll.split) == ["train", "train", "val", "test"]
+    np.testing.assert_allclose(coll.operators[0, 0], np.eye(15), atol=1e-5)  # the first file is the base
+    np.testing.assert_allclose(coll.vertices[2], toy.bend(base.vertices, 1.0), atol=1e-6)
+    back = opnet.data.read_collection(opnet.data.save_collection(coll, tmp_path / "mine"))
+    np.testing.assert_array_equal(back.params["filename"], ["pose0.ply", "pose1.ply", "pose2.ply", "pose3.ply"])
+    other = toy.capsule("default")
+    trimesh.Trimesh(other.vertices, other.faces, process=False).export(folder / "pose9.ply")
+    with pytest.raises(CollectionError, match="pose9.ply has other faces"):
+        opnet.data.load_folder(folder)
+    (folder / "pose9.ply").unlink()
+    (folder / "splits.csv").write_text("pose3.ply,holdout,x\n")
+    with pytest.raises(CollectionError, match="splits.csv:1"):
+        opnet.data.load_folder(folder)
+
+
+def test_determinism():
+    a, b = toy_collection(seed=3), toy_collection(seed=3)
+    np.testing.assert_array_equal(a.split, b.split)
+    np.testing.assert_array_equal(a.operators, b.operators)
+    assert not np.array_equal(a.split, toy_collection(seed=4).split)
