@@ -55,12 +55,35 @@ def test_paper_like_splits(humans):
     assert set(humans.split[humans.eval_subset]) == {"test"}
 
 
-def test_cache_is_reused_and_checked(humans, root):
-    again = opnet.data.load_collection("humans", "quick", root)
+def test_cache_is_reused_and_upgrades_rebuild(humans, root, monkeypatch):
+    again = opnet.data.load_collection("humans", "quick", root, seed=np.int64(0))
     np.testing.assert_array_equal(again.vertices, humans.vertices)
-    npz = root / "humans-quick-1k-seed0.npz"
-    with pytest.raises(opnet.data.CollectionError, match="generator_version"):
-        opnet.data.read_collection(npz, expected_meta={"generator_version": "0"})
+    from opnet.data import generators
+
+    # a new generator version is another file: an upgrade rebuilds instead of failing
+    monkeypatch.setattr(generators, "GENERATOR_VERSION", "test")
+    rebuilt = opnet.data.load_collection("humans", "quick", root, progress=False)
+    assert rebuilt.meta["generator_version"] == "test"
+    assert (root / f"humans-quick-1k-seed0-v{humans.meta['generator_version']}.json").is_file()
+    with pytest.raises(ValueError, match="seed must be an integer"):
+        opnet.data.load_collection("humans", "quick", root, seed=0.5)
+
+
+def test_sequences_have_no_repeated_frames(humans):
+    for sc in set(humans.subcollection):
+        frames = humans.vertices[humans.subcollection == sc].reshape((humans.subcollection == sc).sum(), -1)
+        d = np.abs(frames[:, None] - frames[None]).max(-1)
+        assert (d[np.triu_indices(len(frames), 1)] > 1e-4).all(), sc
+
+
+def test_resolutions_hold_the_same_shapes(humans, root):
+    fine = opnet.data.load_collection("humans", "quick", root, resolution="2k", progress=False)
+    assert fine.vertices.shape[1] == 2000 and not np.array_equal(fine.faces.shape, humans.faces.shape)
+    for a, b in ((fine.split, humans.split), (fine.subcollection, humans.subcollection),
+                 (fine.eval_subset, humans.eval_subset), (fine.params["controls"], humans.params["controls"])):
+        np.testing.assert_array_equal(a, b)
+    extent = lambda v: v.max(axis=1) - v.min(axis=1)  # noqa: E731
+    np.testing.assert_allclose(extent(fine.vertices), extent(humans.vertices), atol=0.03)  # metres
 
 
 def test_same_seed_same_collection(humans, tmp_path):

@@ -80,22 +80,29 @@ def test_save_and_read_round_trip(coll, tmp_path):
     np.testing.assert_array_equal(back.split, coll.split)
     np.testing.assert_array_equal(back.base_basis.evecs, coll.base_basis.evecs)
     np.testing.assert_array_equal(back.params["subject"], coll.params["subject"])
-    manifest = json.loads(path.with_suffix(".json").read_text())
+    manifest = json.loads(path.read_text())
     assert manifest["shapes"]["operators"] == list(coll.operators.shape)
+    assert (tmp_path / manifest["data"]).is_file() and manifest["data"].startswith("toy.")
 
 
 def test_corrupt_mismatched_and_unfinished_files_get_clear_errors(coll, tmp_path):
     path = opnet.data.save_collection(coll, tmp_path / "toy")
     with pytest.raises(CollectionError, match="seed=0, expected 1.*rebuild=True"):
         opnet.data.read_collection(path, expected_meta={"seed": 1})
-    raw = bytearray(path.read_bytes())
+    data = next(tmp_path.glob("toy.*.npz"))
+    raw = bytearray(data.read_bytes())
     raw[len(raw) // 2] ^= 0xFF
-    path.write_bytes(bytes(raw))
+    data.write_bytes(bytes(raw))
     with pytest.raises(CollectionError, match="checksum"):
         opnet.data.read_collection(path)
-    path.with_suffix(".json").unlink()
+    path.write_text("[]")
+    with pytest.raises(CollectionError, match="not an opnet manifest"):
+        opnet.data.read_collection(path)
+    path.unlink()
     with pytest.raises(CollectionError, match="interrupted"):
         opnet.data.read_collection(path)
+    with pytest.raises(CollectionError, match="no collection"):
+        opnet.data.read_collection(tmp_path / "other")
 
 
 def _killed_midway_save(coll, path):
@@ -110,21 +117,41 @@ def _killed_midway_save(coll, path):
     opnet.data.save_collection(coll, path)
 
 
-def test_a_killed_rebuild_leaves_nothing_that_loads(coll, tmp_path):
-    target = tmp_path / "killed"
-    opnet.data.save_collection(coll, target)  # a valid collection is being rebuilt...
+def _kill_midway(coll, target, tmp_path):
     proc = mp.get_context("fork").Process(target=_killed_midway_save, args=(coll, target))
     proc.start()
     deadline = time.time() + 20
-    while not list(tmp_path.glob(".killed.npz.tmp-*")) and time.time() < deadline:
+    while not list(tmp_path.glob(f".{target.name}.tmp-*")) and time.time() < deadline:
         time.sleep(0.05)
-    os.kill(proc.pid, signal.SIGKILL)  # ...and killed while writing its data
+    os.kill(proc.pid, signal.SIGKILL)  # killed while writing its data
     proc.join()
-    assert list(tmp_path.glob(".killed.npz.tmp-*"))  # it did die mid-write
+    assert list(tmp_path.glob(f".{target.name}.tmp-*"))  # it did die mid-write
+
+
+def test_a_killed_build_leaves_nothing_that_loads(coll, tmp_path):
+    first = tmp_path / "first"
+    _kill_midway(coll, first, tmp_path)
     with pytest.raises(CollectionError, match="interrupted"):
-        opnet.data.read_collection(target)  # neither the old nor the half-written data loads
-    opnet.data.save_collection(coll, target)  # a finished save repairs it
-    assert len(opnet.data.read_collection(target)) == len(coll)
+        opnet.data.read_collection(first)  # an interrupted first build: nothing loads
+    opnet.data.save_collection(coll, first)  # a finished save works and clears the debris
+    assert len(opnet.data.read_collection(first)) == len(coll)
+    assert not list(tmp_path.glob(".first.tmp-*"))
+
+
+def test_a_killed_rebuild_keeps_the_previous_collection(coll, tmp_path):
+    target = tmp_path / "again"
+    opnet.data.save_collection(coll, target)
+    _kill_midway(coll, target, tmp_path)
+    back = opnet.data.read_collection(target)  # the previous complete collection, never the half-written one
+    np.testing.assert_array_equal(back.operators, coll.operators)
+
+
+def test_rewrites_leave_one_data_file(coll, tmp_path):
+    small = toy_collection(n_subjects=3)
+    opnet.data.save_collection(coll, tmp_path / "c")
+    opnet.data.save_collection(small, tmp_path / "c")
+    assert len(list(tmp_path.glob("c.*.npz"))) == 1
+    assert len(opnet.data.read_collection(tmp_path / "c")) == len(small)
 
 
 def test_torch_dataset(coll):
@@ -144,10 +171,14 @@ def test_user_folder_loader(tmp_path):
     folder.mkdir()
     for i, angle in enumerate([0.0, 0.5, 1.0, 1.5]):
         trimesh.Trimesh(toy.bend(base.vertices, angle), base.faces, process=False).export(folder / f"pose{i}.ply")
-    (folder / "splits.csv").write_text("pose3.ply,test,pose3\npose2.ply,val,pose2\n")
+    (folder / "splits.csv").write_text("filename,split,subcollection\npose3.ply,test,pose3\npose2.ply,val,pose2\n")
+    (folder / "._pose0.ply").write_bytes(b"macOS metadata, not a mesh")
     coll = opnet.data.load_folder(folder, k=15, progress=False)
     assert len(coll) == 4 and list(coll.split) == ["train", "train", "val", "test"]
     np.testing.assert_allclose(coll.operators[0, 0], np.eye(15), atol=1e-5)  # the first file is the base
+    assert list(coll.eval_subset) == [3] and coll.meta["name"] == "mine"
+    by_stem = opnet.data.load_folder(folder, base="pose1", k=15, progress=False)
+    np.testing.assert_allclose(by_stem.operators[1, 0], np.eye(15), atol=1e-5)
     np.testing.assert_allclose(coll.vertices[2], toy.bend(base.vertices, 1.0), atol=1e-6)
     back = opnet.data.read_collection(opnet.data.save_collection(coll, tmp_path / "mine"))
     np.testing.assert_array_equal(back.params["filename"], ["pose0.ply", "pose1.ply", "pose2.ply", "pose3.ply"])
@@ -158,6 +189,12 @@ def test_user_folder_loader(tmp_path):
     (folder / "pose9.ply").unlink()
     (folder / "splits.csv").write_text("pose3.ply,holdout,x\n")
     with pytest.raises(CollectionError, match="splits.csv:1"):
+        opnet.data.load_folder(folder)
+    (folder / "splits.csv").write_text("pose3.ply,test,x\npose3.ply,val,x\n")
+    with pytest.raises(CollectionError, match="splits.csv:2"):
+        opnet.data.load_folder(folder)
+    (folder / "splits.csv").write_text("pose3.ply,test,seq\npose0.ply,train,seq\n")
+    with pytest.raises(CollectionError, match="spans the splits"):
         opnet.data.load_folder(folder)
 
 

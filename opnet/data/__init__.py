@@ -13,6 +13,7 @@ and smooth toy shapes for tutorials and tests.
 """
 from . import toy
 from .collections import (
+    SPLITS,
     Collection,
     CollectionError,
     default_root,
@@ -23,7 +24,7 @@ from .collections import (
 )
 from .splits import furthest_point_subset, hausdorff, make_splits
 
-__all__ = ["toy", "Collection", "CollectionError", "load_collection", "load_folder", "read_collection",
+__all__ = ["toy", "SPLITS", "Collection", "CollectionError", "load_collection", "load_folder", "read_collection",
            "save_collection", "default_root", "make_splits", "hausdorff", "furthest_point_subset", "OperatorDataset"]
 
 

@@ -419,17 +419,23 @@ _ACTIONS = {
 ACTIONS = tuple(_ACTIONS)
 
 
-def action_angles(action: str, n_frames: int, *, amplitude: float = 1.0) -> dict:
+def _phases(n_frames: int, offset: float) -> np.ndarray:
+    """Phases ``(k + offset) / n_frames`` of one cycle. An offset in (0, ½) avoids sampling a
+    time-symmetric motion twice at the same pose (phases ``t`` and ``1 − t``)."""
+    return (np.arange(n_frames) + offset) / n_frames
+
+
+def action_angles(action: str, n_frames: int, *, amplitude: float = 1.0, offset: float = 0.0) -> dict:
     """Joint angles in degrees ``{name: (n_frames,)}`` of an action (before clipping to the limits)."""
     if action not in _ACTIONS:
         raise ValueError(f"unknown action {action!r}; known: {ACTIONS}.")
-    t = np.arange(n_frames) / n_frames
+    t = _phases(n_frames, offset)
     return {name: amplitude * np.broadcast_to(np.asarray(angle, dtype=np.float64), t.shape).copy()
             for name, angle in _ACTIONS[action](t).items()}
 
 
-def action_poses(action: str, n_frames: int, *, amplitude: float = 1.0) -> np.ndarray:
-    """Poses ``(n_frames, bone_count, 4, 4)`` of one cycle of an action, at phases ``k / n_frames``.
+def action_poses(action: str, n_frames: int, *, amplitude: float = 1.0, offset: float = 0.0) -> np.ndarray:
+    """Poses ``(n_frames, bone_count, 4, 4)`` of one cycle of an action, at phases ``(k + offset) / n_frames``.
 
     Every action is a smooth periodic motion; the one-shot ones (``arm_raise``, ``knee_bend``,
     ``one_leg_balance``, ``forward_bend``, ``jumping_jacks``, ``punch``, ``wave``, ``kick``) start
@@ -438,7 +444,7 @@ def action_poses(action: str, n_frames: int, *, amplitude: float = 1.0) -> np.nd
     ``amplitude`` scales every joint angle (1: the full motion); angles are clipped to
     :data:`JOINT_LIMITS`. The rig is the same at every resolution, so the poses are too.
     """
-    return joint_poses(action_angles(action, n_frames, amplitude=amplitude), n_frames)
+    return joint_poses(action_angles(action, n_frames, amplitude=amplitude, offset=offset), n_frames)
 
 
 # -- random subjects and poses -----------------------------------------------------------------
@@ -574,9 +580,10 @@ def _expression_vector(name: str) -> np.ndarray:
     return weights
 
 
-def expression_sequence(name: str, n_frames: int) -> np.ndarray:
-    """Facial action weights ``(n_frames, n_actions)`` ramping smoothly 0 -> full -> 0 at phases ``k / n_frames``."""
-    return _bump(np.arange(n_frames) / n_frames)[:, None] * _expression_vector(name)[None, :]
+def expression_sequence(name: str, n_frames: int, *, amplitude: float = 1.0, offset: float = 0.0) -> np.ndarray:
+    """Facial action weights ``(n_frames, n_actions)`` ramping smoothly 0 -> ``amplitude`` -> 0, at phases
+    ``(k + offset) / n_frames``."""
+    return amplitude * _bump(_phases(n_frames, offset))[:, None] * _expression_vector(name)[None, :]
 
 
 def random_expressions(n: int, rng: np.random.Generator) -> np.ndarray:
@@ -696,12 +703,12 @@ def hand_poses(angles: dict, n: int | None = None) -> np.ndarray:
     return _poses_from_angles(_HAND_JOINTS, hand_model().bone_labels, angles, n)
 
 
-def gesture_sequence(name: str, n_frames: int) -> np.ndarray:
-    """Hand poses ``(n_frames, 21, 4, 4)`` closing smoothly from rest into a gesture and back, at
-    phases ``k / n_frames``."""
+def gesture_sequence(name: str, n_frames: int, *, amplitude: float = 1.0, offset: float = 0.0) -> np.ndarray:
+    """Hand poses ``(n_frames, 21, 4, 4)`` closing smoothly from rest into a gesture (its joint angles
+    scaled by ``amplitude``) and back, at phases ``(k + offset) / n_frames``."""
     if name not in HAND_GESTURES:
         raise ValueError(f"unknown gesture {name!r}; known: {tuple(HAND_GESTURES)}.")
-    ramp = _bump(np.arange(n_frames) / n_frames)
+    ramp = amplitude * _bump(_phases(n_frames, offset))
     return hand_poses({joint: ramp * angle for joint, angle in HAND_GESTURES[name].items()}, n_frames)
 
 

@@ -3,28 +3,32 @@
 A collection is a set of meshes in 1-1 correspondence (shared faces) with, for every
 shape, its three shape differences against a fixed base shape (fast path, ``k`` = 60 on
 the base by default), its split label, its sub-collection and the parameters it was
-generated from. On disk it is two files in ``root``:
+generated from. On disk, a collection stored under the path ``stem`` is two files:
 
-``{stem}.npz``
+``stem.<sha>.npz`` (``<sha>``: the first 12 hex digits of its SHA-256)
     ``vertices`` (N, n, 3) float32 (metres for the body models), ``faces`` (m, 3) int64,
     ``operators`` (N, 3, k, k) float32 (channels: area, conformal, extrinsic),
     ``split`` (N,) str, ``subcollection`` (N,) str, ``base_vertices`` (n, 3) float64,
     ``base_evals`` (k,), ``base_evecs`` (n, k), ``base_mass`` (n,) float64 (the base
-    eigenbasis every consumer must use), ``eval_subset`` (indices of the 50-shape
-    evaluation subset), and ``param_<name>`` arrays (N, ...) of per-shape parameters.
-``{stem}.json``
+    eigenbasis every consumer must use), ``eval_subset`` (indices of the evaluation
+    subset), and ``param_<name>`` arrays (N, ...) of per-shape parameters.
+``stem.json``
     the manifest: format and generator versions, name, preset, resolution, seed, k, the
-    shapes of the arrays, and the SHA-256 of the ``.npz``.
+    shapes of the arrays, the data file's name and its full SHA-256.
 
-Both files are written to a temporary name and renamed, data first, so an interrupted
-build never leaves a pair that loads: a ``.npz`` without its manifest, or whose checksum
-or parameters do not match, is rebuilt (or reported with :class:`CollectionError`).
+The manifest is the commit point: the data is written under a temporary name and renamed,
+then the manifest is written under a temporary name and renamed over the old one, and only
+then are older data files removed. A reader therefore sees either the previous complete
+collection or the new one, never a half-written file, and an interrupted first build
+leaves nothing that loads (:class:`CollectionError` says what to do).
 """
 from __future__ import annotations
 
 import hashlib
 import json
+import operator
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,9 +39,10 @@ from ..shape_difference import KINDS, shape_differences
 from ..spectral import Eigenbasis, eigenbasis
 
 __all__ = ["Collection", "CollectionError", "load_collection", "load_folder", "save_collection", "read_collection",
-           "default_root", "FORMAT_VERSION"]
+           "default_root", "FORMAT_VERSION", "SPLITS"]
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+SPLITS = ("train", "val", "test", "test_subjects")
 
 
 class CollectionError(RuntimeError):
@@ -61,14 +66,10 @@ class Collection:
     def __len__(self) -> int:
         return len(self.vertices)
 
-    @property
-    def channels(self) -> tuple[str, ...]:
-        return KINDS
-
     def indices(self, split: str) -> np.ndarray:
         """Indices of the shapes of one split (``"train"``, ``"val"``, ``"test"``, ``"test_subjects"``)."""
-        if split not in {"train", "val", "test", "test_subjects"}:
-            raise ValueError(f"unknown split {split!r}; use 'train', 'val', 'test' or 'test_subjects'.")
+        if split not in SPLITS:
+            raise ValueError(f"unknown split {split!r}; use one of {SPLITS}.")
         return np.flatnonzero(self.split == split)
 
     def mesh(self, i: int) -> Mesh:
@@ -76,7 +77,7 @@ class Collection:
         return Mesh(self.vertices[i].astype(np.float64), self.faces)
 
     def __repr__(self) -> str:
-        counts = {s: int(np.sum(self.split == s)) for s in ("train", "val", "test", "test_subjects")}
+        counts = {s: int(np.sum(self.split == s)) for s in SPLITS}
         return (f"Collection({self.meta.get('name', '?')!r}, preset={self.meta.get('preset')!r}, shapes={len(self)}, "
                 f"vertices={self.vertices.shape[1]}, k={self.base_basis.k}, splits={counts})")
 
@@ -94,19 +95,36 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-def _atomic_write(path: Path, write) -> None:
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+def _stem(path) -> Path:
+    path = Path(path)
+    return path.with_name(path.name[: -len(".json")]) if path.name.endswith(".json") else path
+
+
+def _data_files(stem: Path) -> list[Path]:
+    pattern = re.compile(re.escape(stem.name) + r"\.[0-9a-f]{12}\.npz")
+    return [p for p in stem.parent.glob(stem.name + ".*.npz") if pattern.fullmatch(p.name)]
+
+
+def _tmp_files(stem: Path) -> list[Path]:
+    return list(stem.parent.glob(f".{stem.name}.tmp-*"))
+
+
+def _remove_stale_tmp(stem: Path) -> None:
+    """Delete temporary files left by builds whose process no longer runs."""
+    for tmp in _tmp_files(stem):
+        pid = tmp.name.rsplit("-", 1)[-1].split(".")[0]
+        try:
+            os.kill(int(pid), 0)
+        except (ValueError, ProcessLookupError):
+            tmp.unlink(missing_ok=True)
+        except PermissionError:  # alive, someone else's
+            pass
 
 
 def save_collection(coll: Collection, path) -> Path:
-    """Write ``coll`` as ``path`` (``.npz``) plus its manifest (``.json``), atomically; returns the ``.npz`` path."""
-    path = Path(path).with_suffix(".npz")
-    path.parent.mkdir(parents=True, exist_ok=True)
+    """Write ``coll`` under the path ``path`` (data + manifest, see the module docstring); returns the manifest path."""
+    stem = _stem(path)
+    stem.parent.mkdir(parents=True, exist_ok=True)
     arrays = dict(
         vertices=coll.vertices.astype(np.float32), faces=coll.faces.astype(np.int64),
         operators=coll.operators.astype(np.float32), split=coll.split.astype(str),
@@ -114,68 +132,98 @@ def save_collection(coll: Collection, path) -> Path:
         base_evals=coll.base_basis.evals, base_evecs=coll.base_basis.evecs, base_mass=coll.base_basis.mass,
         eval_subset=coll.eval_subset.astype(np.int64), **{f"param_{k}": np.asarray(v) for k, v in coll.params.items()},
     )
-
-    def write_npz(tmp):
+    for key, value in arrays.items():
+        if value.dtype == object:
+            raise TypeError(f"{key} has dtype object, which cannot be stored safely; convert it to str or numbers.")
+    _remove_stale_tmp(stem)
+    tmp = stem.with_name(f".{stem.name}.tmp-{os.getpid()}.npz")
+    tmp_manifest = stem.with_name(f".{stem.name}.tmp-{os.getpid()}.json")
+    try:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
+        digest = _sha256(tmp)
+        data = stem.with_name(f"{stem.name}.{digest[:12]}.npz")
+        os.replace(tmp, data)
+        manifest = dict(coll.meta, format_version=FORMAT_VERSION, data=data.name, sha256=digest,
+                        shapes={k: list(v.shape) for k, v in arrays.items()})
+        tmp_manifest.write_text(json.dumps(manifest, indent=1, sort_keys=True, default=_json_scalar))
+        os.replace(tmp_manifest, stem.with_name(stem.name + ".json"))  # the commit point
+    finally:
+        tmp.unlink(missing_ok=True)
+        tmp_manifest.unlink(missing_ok=True)
+    for old in _data_files(stem):
+        if old != data:
+            old.unlink(missing_ok=True)
+    return stem.with_name(stem.name + ".json")
 
-    path.with_suffix(".json").unlink(missing_ok=True)  # an old manifest must not vouch for new data
-    _atomic_write(path, write_npz)
-    manifest = dict(coll.meta, format_version=FORMAT_VERSION, sha256=_sha256(path),
-                    shapes={k: list(v.shape) for k, v in arrays.items()})
-    _atomic_write(path.with_suffix(".json"), lambda tmp: tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True)))
-    return path
+
+def _json_scalar(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
 
 
 def read_collection(path, expected_meta: dict | None = None) -> Collection:
-    """Load a collection written by :func:`save_collection`, verifying its manifest and checksum.
+    """Load the collection stored under ``path`` (the stem or its ``.json``), verifying manifest and checksum.
 
-    Raises :class:`CollectionError` when the manifest is missing, the checksum or format
-    differs, or a key of ``expected_meta`` (e.g. the preset or seed) does not match.
+    Raises :class:`CollectionError` when it is missing or was interrupted, when the checksum or format
+    differs, or when a key of ``expected_meta`` does not match the manifest.
     """
-    path = Path(path).with_suffix(".npz")
-    fix = f"delete {path} (and its .json) or pass rebuild=True to rebuild it"
-    manifest_path = path.with_suffix(".json")
-    if not path.is_file():
-        raise CollectionError(f"no collection at {path}; build it with opnet.data.load_collection(...).")
-    if not manifest_path.is_file():
-        raise CollectionError(f"{path} has no manifest, so its build was interrupted; {fix}.")
-    try:
-        manifest = json.loads(manifest_path.read_text())
-    except json.JSONDecodeError:
-        raise CollectionError(f"the manifest {manifest_path} is corrupt; {fix}.") from None
-    if manifest.get("format_version") != FORMAT_VERSION:
-        raise CollectionError(f"{path} has format {manifest.get('format_version')}, this opnet reads {FORMAT_VERSION}; {fix}.")
-    for key, value in (expected_meta or {}).items():
-        if manifest.get(key) != value:
-            raise CollectionError(f"{path} was built with {key}={manifest.get(key)!r}, expected {value!r}; {fix}.")
-    if _sha256(path) != manifest.get("sha256"):
-        raise CollectionError(f"{path} does not match the checksum in its manifest (corrupt or modified); {fix}.")
-    with np.load(path) as z:
+    stem = _stem(path)
+    manifest_path = stem.with_name(stem.name + ".json")
+    fix = f"delete {stem}.* or pass rebuild=True to rebuild it"
+    for attempt in range(2):  # a concurrent save may replace the data between reading manifest and data
+        if not manifest_path.is_file():
+            if _data_files(stem) or _tmp_files(stem):
+                raise CollectionError(f"the build of {stem} was interrupted (no manifest); {fix}.")
+            raise CollectionError(f"no collection at {stem}; build it with opnet.data.load_collection(...).")
+        try:
+            manifest = json.loads(manifest_path.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            raise CollectionError(f"the manifest {manifest_path} is corrupt; {fix}.") from None
+        if not isinstance(manifest, dict) or "data" not in manifest:
+            raise CollectionError(f"the manifest {manifest_path} is not an opnet manifest; {fix}.")
+        if manifest.get("format_version") != FORMAT_VERSION:
+            raise CollectionError(f"{stem} has format {manifest.get('format_version')}, this opnet reads "
+                                  f"{FORMAT_VERSION}; {fix}.")
+        for key, value in (expected_meta or {}).items():
+            if manifest.get(key) != value:
+                raise CollectionError(f"{stem} was built with {key}={manifest.get(key)!r}, expected {value!r}; {fix}.")
+        data_path = stem.with_name(manifest["data"])
+        if not data_path.is_file():
+            if attempt == 0:
+                continue
+            raise CollectionError(f"{data_path.name}, named by the manifest, is missing; {fix}.")
+        if _sha256(data_path) != manifest.get("sha256"):
+            raise CollectionError(f"{data_path} does not match the checksum in its manifest (corrupt or modified); {fix}.")
+        break
+    with np.load(data_path) as z:
         data = {k: z[k] for k in z.files}
     base = Mesh(data.pop("base_vertices"), data["faces"])
     basis = Eigenbasis(base, data.pop("base_evals"), data.pop("base_evecs"), data.pop("base_mass"))
     params = {k[len("param_"):]: data.pop(k) for k in list(data) if k.startswith("param_")}
-    meta = {k: v for k, v in manifest.items() if k not in ("sha256", "shapes", "format_version")}
+    meta = {k: v for k, v in manifest.items() if k not in ("sha256", "shapes", "format_version", "data")}
     return Collection(data["vertices"], data["faces"], data["operators"], data["split"],
                       data["subcollection"], basis, data["eval_subset"], params, meta)
 
 
 def assemble(vertices: np.ndarray, faces: np.ndarray, base_vertices: np.ndarray, split: np.ndarray,
              subcollection: np.ndarray, params: dict, meta: dict, *, k: int = 60, progress: bool | None = None,
-             n_eval: int = 5) -> Collection:
+             n_eval: int = 5, fps_vertices: np.ndarray | None = None) -> Collection:
     """A :class:`Collection` from shapes in correspondence: computes the base eigenbasis, the operators
     (fast path) and the evaluation subset (``n_eval`` shapes per test sub-collection by furthest-point
-    sampling on Hausdorff distance: 10 × 5 = 50 as in the paper)."""
+    sampling on Hausdorff distance: 10 × 5 = 50 as in the paper, fewer when a sequence is shorter).
+    ``fps_vertices`` (N, n', 3), default ``vertices``, are the shapes the subset is chosen on."""
     from .splits import furthest_point_subset
 
     base = Mesh(base_vertices, faces)
     basis = eigenbasis(base, k)
     operators = shape_differences(basis, vertices, KINDS, progress=progress).astype(np.float32)
     subset = []
+    fps_vertices = vertices if fps_vertices is None else fps_vertices
     for sc in sorted(set(subcollection[split == "test"])):
-        members = np.flatnonzero(subcollection == sc)
-        subset.extend(members[furthest_point_subset(vertices[members], n_eval)])
+        members = np.flatnonzero((subcollection == sc) & (split == "test"))
+        subset.extend(members[furthest_point_subset(fps_vertices[members], n_eval)])
     return Collection(vertices.astype(np.float32), faces, operators, split, subcollection, basis,
                       np.array(sorted(subset), dtype=np.int64), params, dict(meta, k=k))
 
@@ -199,10 +247,15 @@ def load_collection(name: str, preset: str = "quick", root=None, *, resolution: 
     resolution = resolutions[0] if resolution is None else resolution
     if resolution not in resolutions:
         raise ValueError(f"the {name} collection comes in resolutions {list(resolutions)}, not {resolution!r}.")
+    try:
+        seed = operator.index(seed)
+    except TypeError:
+        raise ValueError(f"seed must be an integer, got {seed!r}.") from None
     root = Path(root) if root is not None else default_root()
-    stem = root / f"{name}-{preset}-{resolution}-seed{seed}"
+    # the generator version is part of the name: after an upgrade that changes the data, it is rebuilt
+    stem = root / f"{name}-{preset}-{resolution}-seed{seed}-v{GENERATOR_VERSION}"
     meta = dict(name=name, preset=preset, resolution=resolution, seed=seed, generator_version=GENERATOR_VERSION)
-    if not rebuild and stem.with_suffix(".npz").is_file():
+    if not rebuild and stem.with_name(stem.name + ".json").is_file():
         return read_collection(stem, expected_meta=meta)
     coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress)
     save_collection(coll, stem)
@@ -212,15 +265,16 @@ def load_collection(name: str, preset: str = "quick", root=None, *, resolution: 
 def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool | None = None) -> Collection:
     """A collection from a folder of your own meshes in correspondence (same faces, any of .ply .obj .off).
 
-    Shapes are read in file-name order; ``base`` names the file used as base shape (default: the first).
-    An optional ``splits.csv`` with lines ``filename,split,subcollection`` assigns splits (default: every
-    shape ``"train"``, each in its own sub-collection named after its file). Save the result with
-    :func:`save_collection`.
+    Shapes are read in file-name order (hidden files are skipped); ``base`` names the file used as base
+    shape, with or without its extension (default: the first). An optional ``splits.csv`` with lines
+    ``filename,split,subcollection`` (a header line ``filename,...`` is allowed) assigns splits; every
+    sub-collection must lie in one split. Unlisted shapes are ``"train"``, each in a sub-collection named
+    after its file. Save the result with :func:`save_collection`.
     """
     from ..mesh import load_mesh
 
-    folder = Path(folder)
-    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in (".ply", ".obj", ".off"))
+    folder = Path(folder).resolve()
+    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in (".ply", ".obj", ".off") and not p.name.startswith("."))
     if not files:
         raise CollectionError(f"no .ply/.obj/.off meshes in {folder}.")
     meshes = []
@@ -228,7 +282,7 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
         try:
             meshes.append(load_mesh(p))
         except MeshError as exc:
-            raise CollectionError(f"{p.name}: {exc}") from None
+            raise CollectionError(f"{p.name} is not a usable mesh ({exc}); repair that file.") from None
     for p, m in zip(files, meshes):
         if not np.array_equal(m.faces, meshes[0].faces):
             raise CollectionError(f"{p.name} has other faces than {files[0].name}: the meshes must be in 1-1 correspondence "
@@ -238,16 +292,26 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
     subcollection = np.array([p.stem for p in files], dtype=object)
     table = folder / "splits.csv"
     if table.is_file():
+        seen = set()
         for line_no, line in enumerate(table.read_text().splitlines(), 1):
-            if not line.strip():
+            fields = [f.strip() for f in line.split(",")]
+            if not line.strip() or (line_no == 1 and fields[0] == "filename"):
                 continue
-            fields = [s.strip() for s in line.split(",")]
-            if len(fields) != 3 or fields[0] not in names or fields[1] not in {"train", "val", "test", "test_subjects"}:
+            if len(fields) != 3 or fields[0] not in names or fields[1] not in SPLITS or fields[0] in seen:
                 raise CollectionError(f"{table}:{line_no}: expected 'filename,split,subcollection' with a known file "
-                                      f"and a split in train/val/test/test_subjects, got {line!r}.")
+                                      f"listed once and a split in {SPLITS}, got {line!r}.")
+            seen.add(fields[0])
             split[names.index(fields[0])], subcollection[names.index(fields[0])] = fields[1], fields[2]
-    base_index = 0 if base is None else names.index(base) if base in names else None
-    if base_index is None:
+        for sc in set(subcollection):
+            if len(set(split[subcollection == sc])) > 1:
+                raise CollectionError(f"{table}: sub-collection {sc!r} spans the splits {sorted(set(split[subcollection == sc]))}; "
+                                      "a sub-collection is held out whole, so give all its shapes one split.")
+    stems = [p.stem for p in files]
+    if base is None:
+        base_index = 0
+    elif base in names or base in stems:
+        base_index = names.index(base) if base in names else stems.index(base)
+    else:
         raise CollectionError(f"base {base!r} is not one of the meshes in {folder}.")
     vertices = np.stack([m.vertices for m in meshes])
     meta = dict(name=folder.name, preset="folder", resolution=f"{vertices.shape[1]}", seed=0,

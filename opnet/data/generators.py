@@ -18,7 +18,7 @@ from .splits import make_splits
 __all__ = ["PRESETS", "GENERATORS", "GENERATOR_VERSION"]
 
 # Bump when a generator changes what it produces: cached collections then no longer match.
-GENERATOR_VERSION = "1"
+GENERATOR_VERSION = "2"
 
 
 @dataclass(frozen=True)
@@ -55,41 +55,46 @@ def _design(preset: Preset, motions, rng: np.random.Generator):
     return subject, motion, frame, split, sub
 
 
-def _build(preset: str, seed: int, meta: dict, progress, *, motions, sequence, random, evaluate, rest, faces):
-    """A collection: ``sequence(motion, n_frames, amplitude)`` and ``random(n, rng)`` give per-shape controls
-    (poses or expression weights), ``evaluate(subjects, controls)`` the vertices; ``rest`` is the base's control."""
+def _build(preset: str, seed: int, meta: dict, progress, *, motions, sequence, random, evaluate, rest, faces,
+           reference=None):
+    """A collection: ``sequence(motion, n_frames, amplitude=, offset=)`` and ``random(n, rng)`` give per-shape
+    controls (poses or expression weights), ``evaluate(subjects, controls)`` the vertices; ``rest`` is the
+    base's control. ``reference(subjects, controls)``, if given, evaluates the shapes on which the
+    evaluation subset is chosen (so that every resolution gets the same subset)."""
     p = PRESETS[preset]
     rng = np.random.default_rng(seed)
     subjects = bodies.random_subjects(p.subjects, rng)
     subject, motion, frame, split, sub = _design(p, motions, rng)
-    amplitude = rng.uniform(0.7, 1.0, p.subjects)  # each person moves a little differently
+    amplitude = rng.uniform(0.7, 1.0, p.subjects)  # each person moves a little differently...
+    offset = rng.uniform(0.05, 0.45, (p.subjects, len(motions)))  # ...and is caught at other instants
     controls = np.empty((len(subject), *rest.shape))
     for s in range(p.subjects):
-        for m in motions:
-            controls[(subject == s) & (motion == m)] = sequence(m, p.frames, amplitude[s])
+        for j, m in enumerate(motions):
+            controls[(subject == s) & (motion == m)] = sequence(m, p.frames, amplitude=amplitude[s], offset=offset[s, j])
         controls[(subject == s) & (motion == "random")] = random(p.random, rng)
     vertices = evaluate(subjects[subject], controls)
     base = evaluate(np.array([bodies.AVERAGE_SUBJECT]), rest[None])[0]
     params = dict(phenotypes=subjects[subject], motion=motion, frame=frame, controls=controls.astype(np.float32))
-    return assemble(vertices, faces, base, split, sub, params, meta, progress=progress)
+    fps_vertices = None if reference is None else reference(subjects[subject], controls)
+    return assemble(vertices, faces, base, split, sub, params, meta, progress=progress, fps_vertices=fps_vertices)
 
 
 def _humans(preset, resolution, seed, meta, progress=None):
-    return _build(preset, seed, meta, progress, motions=bodies.ACTIONS,
-                  sequence=lambda a, n, amp: bodies.action_poses(a, n, amplitude=amp), random=bodies.random_poses,
-                  evaluate=lambda subj, poses: bodies.human_vertices(subj, poses, resolution), rest=bodies.rest_pose(),
-                  faces=bodies.human_faces(resolution))
+    one_k = None if resolution == "1k" else (lambda subj, poses: bodies.human_vertices(subj, poses, "1k"))
+    return _build(preset, seed, meta, progress, motions=bodies.ACTIONS, sequence=bodies.action_poses,
+                  random=bodies.random_poses, evaluate=lambda subj, poses: bodies.human_vertices(subj, poses, resolution),
+                  rest=bodies.rest_pose(), faces=bodies.human_faces(resolution), reference=one_k)
 
 
 def _heads(preset, resolution, seed, meta, progress=None):
     return _build(preset, seed, meta, progress, motions=tuple(bodies.HEAD_EXPRESSIONS),
-                  sequence=lambda e, n, amp: amp * bodies.expression_sequence(e, n), random=bodies.random_expressions,
+                  sequence=bodies.expression_sequence, random=bodies.random_expressions,
                   evaluate=bodies.head_vertices, rest=np.zeros(len(bodies.FACIAL_ACTIONS)), faces=bodies.head_faces())
 
 
 def _hands(preset, resolution, seed, meta, progress=None):
     return _build(preset, seed, meta, progress, motions=tuple(bodies.HAND_GESTURES),
-                  sequence=lambda g, n, amp: bodies.gesture_sequence(g, n), random=bodies.random_hand_poses,
+                  sequence=bodies.gesture_sequence, random=bodies.random_hand_poses,
                   evaluate=bodies.hand_vertices, rest=bodies.hand_poses({}, 1)[0], faces=bodies.hand_faces())
 
 

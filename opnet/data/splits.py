@@ -42,7 +42,7 @@ def hausdorff(X: np.ndarray, Y: np.ndarray) -> float:
 
 
 def furthest_point_subset(vertices: np.ndarray, n: int) -> np.ndarray:
-    """Indices of ``n`` shapes ``(N, n_vertices, 3)`` chosen by furthest-point sampling on Hausdorff distance.
+    """Indices of up to ``n`` distinct shapes ``(N, n_vertices, 3)`` chosen by furthest-point sampling on Hausdorff distance.
 
     Starts from shape 0 and repeatedly adds the shape furthest (in Hausdorff distance)
     from those already chosen; needs ``n · N`` distances, not the ``N²`` matrix.
@@ -50,7 +50,7 @@ def furthest_point_subset(vertices: np.ndarray, n: int) -> np.ndarray:
     n = min(n, len(vertices))
     chosen = [0]
     nearest = np.array([hausdorff(vertices[0], v) for v in vertices])
-    while len(chosen) < n:
+    while len(chosen) < n and nearest.max() > 0:  # stop when only copies of chosen shapes remain
         nxt = int(np.argmax(nearest))
         chosen.append(nxt)
         nearest = np.minimum(nearest, [hausdorff(vertices[nxt], v) for v in vertices])

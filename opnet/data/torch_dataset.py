@@ -12,8 +12,8 @@ __all__ = ["OperatorDataset"]
 class OperatorDataset(torch.utils.data.Dataset):
     """Shapes of one split as ``(operators (C, k, k), vertices (n, 3))`` float32 tensors.
 
-    ``channels`` picks any subset of ``("area", "conformal", "extrinsic")``, in that order of the
-    stored array, so a model can be trained on Int, Ext or Int+Ext inputs (the paper's ablation).
+    ``channels`` picks any subset of ``("area", "conformal", "extrinsic")``, returned in the order
+    given, so a model can be trained on Int, Ext or Int+Ext inputs (the paper's ablation).
     """
 
     def __init__(self, collection, split: str = "train", channels=KINDS):
