@@ -162,10 +162,12 @@ def _run_model(model, subjects: np.ndarray, n_vertices: int, batch_size: int, re
     per-shape arrays ``(N, ...)`` passed to the model by keyword.
     """
     import torch
+    from tqdm.auto import tqdm
 
     out = np.empty((len(subjects), n_vertices, 3))
+    starts = range(0, len(subjects), batch_size)
     with torch.no_grad():
-        for start in range(0, len(subjects), batch_size):
+        for start in tqdm(starts, desc="meshes", unit="batch", disable=len(starts) < 8):
             batch = slice(start, start + batch_size)
             s = torch.from_numpy(subjects[batch])
             result = model(
