@@ -10,6 +10,7 @@ Public API::
     G     = opnet.gram_matrix(basis, X);  Y = opnet.recover_embedding(G, basis)
     Dt    = opnet.interpolate(D0, D1, t, scheme="multiplicative" | "linear")
     DX    = opnet.analogy(DA, DB, DC)          # D_X = D_C D_A⁺ D_B
+    net   = opnet.OperatorNet(n_vertices, k=60)  # (B, 3, k, k) -> (B, n, 3); loss: opnet.rigid_alignment_loss
 """
 from . import data
 from .algebra import analogy, interpolate, log_difference, relative_difference
@@ -41,4 +42,13 @@ __all__ = [
     "gram_matrix", "recover_embedding",
     "interpolate", "analogy", "relative_difference", "log_difference",
     "kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume",
+    "OperatorNet", "rigid_alignment_loss",
 ]
+
+
+def __getattr__(name):
+    if name in ("OperatorNet", "rigid_alignment_loss"):  # import torch only when the network is asked for
+        from . import model
+
+        return getattr(model, name)
+    raise AttributeError(f"module 'opnet' has no attribute {name!r}")

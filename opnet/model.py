@@ -1,0 +1,87 @@
+"""OperatorNet (section 5 of the paper): shape differences in, vertex coordinates out, and its loss (eq. 9).
+
+The network reads ``C`` shape-difference matrices ``(C, k, k)`` as image channels: a shallow
+convolutional encoder (3 × 3 convolutions, stride 2, 8 filters doubling per layer, ReLU; one layer by
+default, the paper's best in its ablation, Appendix B) and a dense decoder (1024, 1024, n · 3).
+"""
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from .shape_difference import KINDS
+
+__all__ = ["OperatorNet", "rigid_alignment_loss", "kabsch_torch"]
+
+
+class OperatorNet(nn.Module):
+    """Shape differences ``(B, C, k, k)`` → vertex coordinates ``(B, n_vertices, 3)``.
+
+    Parameters
+    ----------
+    n_vertices : number of output vertices ``n``.
+    k : size of the operators (the base basis size, 60 in the paper).
+    channels : the input operators, any non-empty subset of ``("area", "conformal", "extrinsic")``.
+    depth : convolution layers in the encoder, 1 to 4 (filters 8, 16, 32, 64).
+    hidden : width of the two hidden dense layers (1024 in the paper).
+    """
+
+    def __init__(self, n_vertices: int, k: int = 60, channels=KINDS, depth: int = 1, hidden: int = 1024):
+        super().__init__()
+        channels = tuple(channels)
+        if not channels or not set(channels) <= set(KINDS) or len(set(channels)) != len(channels):
+            raise ValueError(f"channels must be a non-empty subset of {KINDS} without repeats, got {channels!r}.")
+        if depth not in (1, 2, 3, 4):
+            raise ValueError(f"depth must be 1, 2, 3 or 4 convolution layers (the paper's ablation), got {depth!r}.")
+        if n_vertices < 4 or k < 1:
+            raise ValueError(f"need n_vertices >= 4 and k >= 1, got {n_vertices} and {k}.")
+        self.n_vertices, self.k, self.channels, self.depth = n_vertices, k, channels, depth
+        layers, width, size = [], len(channels), k
+        for i in range(depth):
+            layers += [nn.Conv2d(width, 8 * 2**i, kernel_size=3, stride=2, padding=1), nn.ReLU()]
+            width, size = 8 * 2**i, (size + 1) // 2
+        self.encoder = nn.Sequential(*layers, nn.Flatten())
+        self.decoder = nn.Sequential(
+            nn.Linear(width * size * size, hidden), nn.ReLU(),
+            nn.Linear(hidden, hidden), nn.ReLU(),
+            nn.Linear(hidden, 3 * n_vertices),
+        )
+
+    def forward(self, operators: torch.Tensor) -> torch.Tensor:
+        expected = (len(self.channels), self.k, self.k)
+        if operators.ndim != 4 or tuple(operators.shape[1:]) != expected:
+            raise ValueError(f"OperatorNet expects operators of shape (B, {expected[0]}, {self.k}, {self.k}) for channels "
+                             f"{self.channels}, got {tuple(operators.shape)}.")
+        return self.decoder(self.encoder(operators)).view(-1, self.n_vertices, 3)
+
+
+def kabsch_torch(X: torch.Tensor, Y: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Rotation ``R`` ``(B, 3, 3)`` and translation ``t`` ``(B, 3)`` minimising ``Σ‖R x + t − y‖²`` (no reflections).
+
+    Computed in float64 without gradient (see :func:`rigid_alignment_loss`).
+    """
+    with torch.no_grad():
+        X64, Y64 = X.detach().double(), Y.detach().double()
+        mx, my = X64.mean(1, keepdim=True), Y64.mean(1, keepdim=True)
+        U, _, Vt = torch.linalg.svd((X64 - mx).transpose(1, 2) @ (Y64 - my))
+        d = torch.sign(torch.linalg.det(Vt.transpose(1, 2) @ U.transpose(1, 2)))
+        d = torch.where(d == 0, torch.ones_like(d), d)
+        S = torch.diag_embed(torch.stack([torch.ones_like(d), torch.ones_like(d), d], dim=1))
+        R = Vt.transpose(1, 2) @ S @ U.transpose(1, 2)
+        t = my.squeeze(1) - (R @ mx.transpose(1, 2)).squeeze(2)
+    return R.to(X.dtype), t.to(X.dtype)
+
+
+def rigid_alignment_loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Eq. 9: mean over the batch of ``(1/n) Σ_i ‖R(pred_i) − target_i‖²`` after the optimal rigid motion ``R``.
+
+    ``pred``, ``target``: ``(B, n, 3)``. The optimal rotation and translation are found by Kabsch (float64
+    SVD, no reflections) and then held fixed: since they minimise the loss, the gradient with them fixed is
+    the gradient of the minimum (Danskin's theorem), so no gradient flows through the SVD and it stays finite
+    even where singular values coincide. Invariant to rigid motions of ``pred``.
+    """
+    if pred.shape != target.shape or pred.ndim != 3 or pred.shape[-1] != 3:
+        raise ValueError(f"pred and target must both be (B, n, 3), got {tuple(pred.shape)} and {tuple(target.shape)}.")
+    R, t = kabsch_torch(pred, target)
+    aligned = pred @ R.transpose(1, 2) + t[:, None, :]
+    return ((aligned - target) ** 2).sum(-1).mean()
