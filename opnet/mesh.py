@@ -25,8 +25,12 @@ class MeshError(ValueError):
 
 def face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Triangle areas, ``(..., m)`` for vertices ``(..., n, 3)`` and faces ``(m, 3)``."""
-    v = vertices[..., faces, :]  # (..., m, 3, 3)
-    cross = np.cross(v[..., 1, :] - v[..., 0, :], v[..., 2, :] - v[..., 0, :])
+    return triangle_areas(vertices[..., faces, :])
+
+
+def triangle_areas(corners: np.ndarray) -> np.ndarray:
+    """Areas ``(...)`` of triangles given by their corners ``(..., 3, 3)`` (``vertices[..., faces, :]``)."""
+    cross = np.cross(corners[..., 1, :] - corners[..., 0, :], corners[..., 2, :] - corners[..., 0, :])
     return 0.5 * np.linalg.norm(cross, axis=-1)
 
 
@@ -89,9 +93,9 @@ def _as_faces(faces, n: int) -> np.ndarray:
     return f
 
 
-def _largest_component(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _largest_component(v: np.ndarray, f: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices, re-indexed faces and kept vertex indices of the largest component (``labels`` per vertex)."""
     n = len(v)
-    _, labels = _components(f, n)
     keep = labels == np.bincount(labels).argmax()
     kept = np.flatnonzero(keep)
     remap = np.full(n, -1)
@@ -148,7 +152,7 @@ class Mesh:
                     f"{'...' if n_comp > 5 else ''}; the Laplacian of a disconnected mesh has several zero "
                     "eigenvalues. Pass keep_largest_component=True to keep the largest one."
                 )
-            v, f, kept = _largest_component(v, f)
+            v, f, kept = _largest_component(v, f, labels)
             if len(v) < 4:
                 raise MeshError(f"the largest component has {len(v)} vertices; at least 4 are needed.")
         self._check_faces(v, f)

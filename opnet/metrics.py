@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh import edge_face_counts, unique_edges
+from .mesh import _as_faces, edge_face_counts, unique_edges
 
 __all__ = ["kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume"]
 
@@ -43,20 +43,13 @@ def d_R(X_gt, X_recon) -> np.ndarray:
     return np.mean(np.sum((rigid_align(X_recon, X_gt) - X_gt) ** 2, axis=-1), axis=-1)
 
 
-def _faces_for(X: np.ndarray, faces) -> np.ndarray:
-    f = np.asarray(faces)
-    if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu" or f.min() < 0 or f.max() >= X.shape[-2]:
-        raise ValueError(f"faces must be an (m, 3) integer array indexing the {X.shape[-2]} vertices.")
-    return f
-
-
 def mesh_volume(vertices, faces) -> np.ndarray:
     """Signed enclosed volume ``(...)`` of closed meshes ``(..., n, 3)`` (divergence theorem; length³).
 
     Positive for outward-oriented faces. Only meaningful for a closed surface.
     """
     v = np.asarray(vertices, dtype=np.float64)
-    v = v[..., _faces_for(v, faces), :]
+    v = v[..., _as_faces(faces, v.shape[-2]), :]
     return np.einsum("...i,...i->...", v[..., 0, :], np.cross(v[..., 1, :], v[..., 2, :])).sum(-1) / 6.0
 
 
@@ -67,7 +60,7 @@ def d_V(X_gt, X_recon, faces) -> np.ndarray:
     ``ValueError`` for an open mesh, whose enclosed volume is undefined.
     """
     X_gt, X_recon = _pair(X_gt, X_recon)
-    f = _faces_for(X_gt, faces)
+    f = _as_faces(faces, X_gt.shape[-2])
     if np.any(edge_face_counts(f)[1] != 2):
         raise ValueError("d_V needs a closed mesh (every edge in exactly two faces); this one has boundary edges.")
     v_gt = np.abs(mesh_volume(X_gt, f))
@@ -77,7 +70,7 @@ def d_V(X_gt, X_recon, faces) -> np.ndarray:
 def d_E(X_gt, X_recon, faces) -> np.ndarray:
     """Mean relative edge-length error ``mean |l_gt − l_recon| / l_gt`` over the unique edges of ``faces``."""
     X_gt, X_recon = _pair(X_gt, X_recon)
-    e = unique_edges(_faces_for(X_gt, faces))
+    e = unique_edges(_as_faces(faces, X_gt.shape[-2]))
 
     def lengths(X):
         return np.linalg.norm(X[..., e[:, 0], :] - X[..., e[:, 1], :], axis=-1)

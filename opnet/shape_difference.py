@@ -125,21 +125,23 @@ def shape_differences(
         )
     if not np.isfinite(vertices).all():
         raise ValueError("vertices contain NaN or infinite values.")
-    bad = degenerate_faces(vertices, base.faces).any(axis=-1)
+    if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
+        raise ValueError(f"batch_size must be a positive integer, got {batch_size!r}.")
+    starts = range(0, len(vertices), batch_size)
+    # checked batch by batch: the triangles of all shapes at once can take gigabytes
+    bad = np.concatenate([np.zeros(0, bool)] + [degenerate_faces(vertices[s : s + batch_size], base.faces).any(axis=-1)
+                                                for s in starts])
     if bad.any():
         raise ValueError(
             f"{bad.sum()} shapes have zero-area faces (first: shape {np.flatnonzero(bad)[0]}); cotan weights are "
             "undefined there. Drop or repair those shapes."
         )
-    if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
-        raise ValueError(f"batch_size must be a positive integer, got {batch_size!r}.")
     if isinstance(kinds, str):
         raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
     ips = [get_inner_product(kind) for kind in kinds]
     phi, faces = base_basis.evecs, base.faces
     k0_pinv = [pinv_psd(ip.project(base.vertices, faces, phi)) for ip in ips]
     out = np.empty((len(vertices), len(ips), base_basis.k, base_basis.k))
-    starts = range(0, len(vertices), batch_size)
     show = len(starts) > 1 if progress is None else progress
     for s in tqdm(starts, desc="shape differences", unit="batch", disable=not show):
         chunk = vertices[s : s + batch_size]

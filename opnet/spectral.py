@@ -14,7 +14,7 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg
 
-from .mesh import Mesh, face_areas, unique_edges
+from .mesh import Mesh, face_areas, triangle_areas, unique_edges
 
 __all__ = ["Eigenbasis", "eigenbasis", "cotan_edge_weights", "vertex_areas"]
 
@@ -127,7 +127,7 @@ def eigenbasis(mesh: Mesh, k: int) -> Eigenbasis:
 def _corner_cotangents(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """cot of each corner angle, ``(..., m, 3)``; corner c is opposite the edge (c+1, c+2)."""
     v = vertices[..., faces, :]  # (..., m, 3, 3)
-    double_area = 2.0 * face_areas(vertices, faces)  # |e1 × e2| is the same at every corner
+    double_area = 2.0 * triangle_areas(v)  # |e1 × e2| is the same at every corner
     cots = []
     for c in range(3):
         e1 = v[..., (c + 1) % 3, :] - v[..., c, :]
