@@ -1,6 +1,7 @@
 # Two entry points, each creating the virtual environment (.venv) when it is missing:
 #   make run    executes the notebooks at a small preset into build/ (notebooks + HTML)
 #   make test   runs the unit tests and the notebooks (nbval)
+#   make reproduce PRESET=default   Table 1 + ablation into build/reproduce-$(PRESET) (results.json/md, figures)
 PYTHON ?= python3
 VENV   ?= .venv
 PRESET ?= quick
@@ -10,7 +11,7 @@ STAMP  := $(VENV)/.installed-stamp
 # machines; an unpinned torch would pull a multi-GB CUDA build. The package accepts any recent torch.
 TORCH  ?= torch==2.13.0
 
-.PHONY: run test clean
+.PHONY: run test reproduce clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +28,9 @@ run: $(STAMP)
 
 test: $(STAMP)
 	OPNET_PRESET=quick $(PY) -m pytest
+
+reproduce: $(STAMP)
+	$(PY) -m opnet reproduce --preset $(PRESET) --out build/reproduce-$(PRESET)
 
 clean:
 	rm -rf build $(VENV)

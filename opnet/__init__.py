@@ -11,6 +11,11 @@ Public API::
     Dt    = opnet.interpolate(D0, D1, t, scheme="multiplicative" | "linear")
     DX    = opnet.analogy(DA, DB, DC)          # D_X = D_C D_A⁺ D_B
     net   = opnet.OperatorNet(n_vertices, k=60)  # (B, 3, k, k) -> (B, n, 3); loss: opnet.rigid_alignment_loss
+    net, history = opnet.train.fit(collection, channels=KINDS, depth=1, epochs=50, run_dir="runs/x")
+    rows  = opnet.evaluate.evaluate(collection, [opnet.evaluate.operatornet_method(net, collection)])
+    rows  = opnet.reproduce.reproduce("quick", "reproduce-quick")   # Table 1 + ablation -> results.json/md
+
+The modules ``train``, ``evaluate``, ``reproduce`` and ``model`` import torch, so they load on first use.
 """
 from . import data
 from .algebra import analogy, interpolate, log_difference, relative_difference
@@ -42,13 +47,17 @@ __all__ = [
     "gram_matrix", "recover_embedding",
     "interpolate", "analogy", "relative_difference", "log_difference",
     "kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume",
-    "OperatorNet", "rigid_alignment_loss",
+    "OperatorNet", "rigid_alignment_loss", "model", "train", "evaluate", "reproduce",
 ]
 
+_TORCH_MODULES = ("model", "train", "evaluate", "reproduce")
 
-def __getattr__(name):
-    if name in ("OperatorNet", "rigid_alignment_loss"):  # import torch only when the network is asked for
-        from . import model
 
-        return getattr(model, name)
+def __getattr__(name):  # import torch only when the network is asked for
+    import importlib
+
+    if name in ("OperatorNet", "rigid_alignment_loss"):
+        return getattr(importlib.import_module(".model", __name__), name)
+    if name in _TORCH_MODULES:
+        return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module 'opnet' has no attribute {name!r}")

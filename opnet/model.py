@@ -24,9 +24,14 @@ class OperatorNet(nn.Module):
     channels : the input operators, any non-empty subset of ``("area", "conformal", "extrinsic")``.
     depth : convolution layers in the encoder, 1 to 4 (filters 8, 16, 32, 64).
     hidden : width of the two hidden dense layers (1024 in the paper).
+    subtract_identity : feed the encoder ``D − I`` instead of ``D`` (default ``True``). Shape differences
+        of shapes close to the base are close to the identity, so ``D − I`` is the part that varies; it is
+        subtracted inside :meth:`forward`, so the network is always called on the operators themselves.
+        ``opnet.train`` measured on ``val`` which helps (see the README's training section).
     """
 
-    def __init__(self, n_vertices: int, k: int = 60, channels=KINDS, depth: int = 1, hidden: int = 1024):
+    def __init__(self, n_vertices: int, k: int = 60, channels=KINDS, depth: int = 1, hidden: int = 1024,
+                 subtract_identity: bool = True):
         super().__init__()
         channels = tuple(channels)
         if not channels or not set(channels) <= set(KINDS) or len(set(channels)) != len(channels):
@@ -36,6 +41,7 @@ class OperatorNet(nn.Module):
         if n_vertices < 4 or k < 1:
             raise ValueError(f"need n_vertices >= 4 and k >= 1, got {n_vertices} and {k}.")
         self.n_vertices, self.k, self.channels, self.depth = n_vertices, k, channels, depth
+        self.hidden, self.subtract_identity = hidden, bool(subtract_identity)
         layers, width, size = [], len(channels), k
         for i in range(depth):
             layers += [nn.Conv2d(width, 8 * 2**i, kernel_size=3, stride=2, padding=1), nn.ReLU()]
@@ -52,7 +58,14 @@ class OperatorNet(nn.Module):
         if operators.ndim != 4 or tuple(operators.shape[1:]) != expected:
             raise ValueError(f"OperatorNet expects operators of shape (B, {expected[0]}, {self.k}, {self.k}) for channels "
                              f"{self.channels}, got {tuple(operators.shape)}.")
+        if self.subtract_identity:
+            operators = operators - torch.eye(self.k, dtype=operators.dtype, device=operators.device)
         return self.decoder(self.encoder(operators)).view(-1, self.n_vertices, 3)
+
+    def config(self) -> dict:
+        """The constructor's arguments, enough to rebuild the network (stored in checkpoints)."""
+        return dict(n_vertices=self.n_vertices, k=self.k, channels=list(self.channels), depth=self.depth,
+                    hidden=self.hidden, subtract_identity=self.subtract_identity)
 
 
 def kabsch_torch(X: torch.Tensor, Y: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -72,16 +85,22 @@ def kabsch_torch(X: torch.Tensor, Y: torch.Tensor) -> tuple[torch.Tensor, torch.
     return R.to(X.dtype), t.to(X.dtype)
 
 
-def rigid_alignment_loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-    """Eq. 9: mean over the batch of ``(1/n) Σ_i ‖R(pred_i) − target_i‖²`` after the optimal rigid motion ``R``.
+def rigid_alignment_loss(pred: torch.Tensor, target: torch.Tensor, reduction: str = "mean") -> torch.Tensor:
+    """Eq. 9: ``(1/n) Σ_i ‖R(pred_i) − target_i‖²`` after the optimal rigid motion ``R``, per shape.
 
-    ``pred``, ``target``: ``(B, n, 3)``. The optimal rotation and translation are found by Kabsch (float64
+    ``pred``, ``target``: ``(B, n, 3)``, ``B ≥ 1``. ``reduction="mean"`` averages over the batch (a scalar),
+    ``"none"`` returns the ``(B,)`` per-shape values (``d_R`` of each shape). The optimal rotation and translation are found by Kabsch (float64
     SVD, no reflections) and then held fixed: since they minimise the loss, the gradient with them fixed is
     the gradient of the minimum (Danskin's theorem), so no gradient flows through the SVD and it stays finite
     even where singular values coincide. Invariant to rigid motions of ``pred``.
     """
     if pred.shape != target.shape or pred.ndim != 3 or pred.shape[-1] != 3:
         raise ValueError(f"pred and target must both be (B, n, 3), got {tuple(pred.shape)} and {tuple(target.shape)}.")
+    if pred.shape[0] == 0:
+        raise ValueError("the batch is empty (B = 0): the loss of no shapes is undefined; pass at least one shape.")
+    if reduction not in ("mean", "none"):
+        raise ValueError(f"reduction must be 'mean' or 'none', got {reduction!r}.")
     R, t = kabsch_torch(pred, target)
     aligned = pred @ R.transpose(1, 2) + t[:, None, :]
-    return ((aligned - target) ** 2).sum(-1).mean()
+    per_shape = ((aligned - target) ** 2).sum(-1).mean(-1)
+    return per_shape.mean() if reduction == "mean" else per_shape

@@ -7,7 +7,17 @@ import numpy as np
 
 from .mesh import Mesh
 
-__all__ = ["use_static_backend", "to_pyvista", "plot_meshes", "plot_operators"]
+__all__ = ["headless", "use_static_backend", "to_pyvista", "plot_meshes", "plot_operators", "plot_reconstructions", "plot_history",
+           "plot_ablation"]
+
+
+def headless() -> None:
+    """Render pyvista off screen (through EGL when there is no display), e.g. to save screenshots from a script."""
+    if not os.environ.get("DISPLAY"):
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
 
 
 def use_static_backend(window_size=(900, 300)) -> None:
@@ -15,11 +25,9 @@ def use_static_backend(window_size=(900, 300)) -> None:
 
     Call it at the top of a notebook so that readers and the test-suite see the same images.
     """
-    if not os.environ.get("DISPLAY"):
-        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    headless()
     import pyvista as pv
 
-    pv.OFF_SCREEN = True
     pv.set_jupyter_backend("static")
     _store_renders_as_jpeg()
     pv.global_theme.window_size = list(window_size)
@@ -105,5 +113,87 @@ def plot_operators(operators, titles=None, *, vmax=None, cmap="RdBu_r"):
         ax.set_xticks([])
         ax.set_yticks([])
         fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
+    fig.tight_layout()
+    return fig
+
+
+def plot_reconstructions(gt, reconstructions: dict, faces, *, titles=None, clim=None, camera="xz", zoom=1.2):
+    """Ground truth beside reconstructions, one shape per row, each reconstruction coloured by its error.
+
+    Parameters
+    ----------
+    gt : (N, n, 3) ground-truth vertices.
+    reconstructions : dict name → (N, n, 3), e.g. ``{"OperatorNet": ..., "NN": ...}``; each is rigidly
+        aligned onto the ground truth and painted with its per-vertex distance to it (length unit of the
+        input; shared colour range ``clim``, default 0 to the largest error shown).
+    faces : (m, 3) shared triangles.
+    titles : list of N str, optional, a caption per row (e.g. the shape's sequence).
+    """
+    from .evaluate import vertex_errors
+    from .metrics import rigid_align
+
+    gt = np.asarray(gt, dtype=np.float64)
+    errors = {name: vertex_errors(gt, r) for name, r in reconstructions.items()}
+    aligned = {name: rigid_align(np.asarray(r, np.float64), gt) for name, r in reconstructions.items()}
+    vmax = max(float(e.max()) for e in errors.values()) if clim is None else None
+    clim = clim or (0.0, vmax)
+    meshes, scalars, labels = [], [], []
+    for i in range(len(gt)):
+        meshes.append((gt[i], faces))
+        scalars.append(None)
+        scale = f" (colour: 0 to {1000 * clim[1]:.0f} mm)" if i == 0 and clim[1] < 1 else ""
+        labels.append(f"ground truth{' · ' + titles[i] if titles else ''}{scale}")
+        for name in reconstructions:
+            meshes.append((aligned[name][i], faces))
+            scalars.append(errors[name][i])
+            labels.append(f"{name}: mean {1000 * errors[name][i].mean():.1f} mm" if clim[1] < 1 else name)
+    ncols = 1 + len(reconstructions)
+    return plot_meshes(meshes, scalars, labels, cmap="magma_r", clim=clim, ncols=ncols, camera=camera, zoom=zoom,
+                       window_size=(330 * ncols, 360 * len(gt)))
+
+
+def plot_history(histories: dict, *, ax=None):
+    """Training curves: train loss (dashed) and validation ``d_R`` (solid), ×10⁻⁴, per epoch, log scale.
+
+    ``histories``: dict label → the history returned by :func:`opnet.train.fit`. Returns the figure.
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(7, 3.6))
+    else:
+        fig = ax.figure
+    for i, (label, hist) in enumerate(histories.items()):
+        epochs = [h["epoch"] for h in hist]
+        color = f"C{i}"
+        ax.plot(epochs, [1e4 * h["train_loss"] for h in hist], "--", color=color, alpha=0.7)
+        ax.plot(epochs, [1e4 * h["val_d_R"] for h in hist], "-", color=color, label=label)
+    ax.set_yscale("log")
+    ax.set_xlabel("epoch")
+    ax.set_ylabel("d_R (×10⁻⁴)")
+    ax.set_title("train loss (dashed) and validation d_R (solid)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def plot_ablation(table, rows, columns, *, title="d_R on test (×10⁻⁴)", ax=None):
+    """Heat map of an ablation table ``(len(rows), len(columns))`` with its values written in the cells."""
+    import matplotlib.pyplot as plt
+
+    table = np.asarray(table, dtype=float)
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(1.1 * len(columns) + 2, 0.6 * len(rows) + 1.5))
+    else:
+        fig = ax.figure
+    im = ax.imshow(table, cmap="viridis_r", aspect="auto")
+    for (i, j), v in np.ndenumerate(table):
+        if np.isfinite(v):
+            ax.text(j, i, f"{v:.3g}", ha="center", va="center", color="white" if v > np.nanmedian(table) else "black",
+                    fontsize=9)
+    ax.set_xticks(range(len(columns)), columns)
+    ax.set_yticks(range(len(rows)), rows)
+    ax.set_title(title)
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
     fig.tight_layout()
     return fig

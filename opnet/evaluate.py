@@ -1,0 +1,166 @@
+"""Evaluation (section 6): methods × metrics × test sets, as in the paper's Table 1.
+
+Methods are :class:`Method` objects: a name and a function from shape indices of a collection to
+reconstructed vertices. Three kinds are provided:
+
+- :func:`operatornet_method`: a trained :class:`opnet.OperatorNet` decoding the shapes' operators;
+- :func:`nearest_neighbour_method`: the training shape whose operators (the same channels, Frobenius
+  norm) are nearest (the paper's "NN" row);
+- :func:`base_shape_method`: the base shape itself, whatever the input (the "do nothing" floor).
+
+Test sets (:data:`TEST_SETS`): ``"eval_subset"`` (the paper's protocol: 5 shapes per held-out
+sequence chosen by furthest-point sampling, 50 in all), all of ``"test"`` (10 held-out sequences), and
+``"test_subjects"`` (every shape of unseen body types).
+
+Metrics per shape (:func:`shape_errors`): ``d_R`` (eq. 9, length², reported ×10⁻⁴ like the paper),
+``d_V`` (relative volume error) and ``d_E`` (mean relative edge-length error); rows hold their means and
+medians.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .metrics import d_E, d_R, d_V, rigid_align
+from .shape_difference import KINDS
+
+__all__ = ["TEST_SETS", "Method", "test_set_indices", "channel_label", "predict", "operatornet_method",
+           "nearest_neighbour", "nearest_neighbour_method", "base_shape_method", "shape_errors", "vertex_errors",
+           "evaluate"]
+
+TEST_SETS = ("eval_subset", "test", "test_subjects")
+_LABELS = {KINDS: "Int+Ext", ("area", "conformal"): "Int", ("extrinsic",): "Ext"}
+
+
+def channel_label(channels) -> str:
+    """The paper's name of an input combination: ``Int+Ext`` (all three), ``Int`` (area + conformal),
+    ``Ext`` (extrinsic), else the ablation's short name (``Area``, ``Conf``, ``A+E``, ``A+C``, ``E+C``)."""
+    from .train import CHANNEL_SETS, parse_channels
+
+    channels = parse_channels(channels)
+    key = tuple(c for c in KINDS if c in channels)
+    if key in _LABELS:
+        return _LABELS[key]
+    return next(name for name, kinds in CHANNEL_SETS.items() if set(kinds) == set(key))
+
+
+def test_set_indices(collection, test_set: str) -> np.ndarray:
+    """Shape indices of a test set: ``"eval_subset"`` (the 50-shape subset), ``"test"`` or ``"test_subjects"``."""
+    if test_set == "eval_subset":
+        return np.asarray(collection.eval_subset)
+    if test_set in ("test", "test_subjects"):
+        return collection.indices(test_set)
+    raise ValueError(f"unknown test set {test_set!r}; use one of {TEST_SETS}.")
+
+
+@dataclass
+class Method:
+    """A reconstruction method: ``reconstruct(indices) → (len(indices), n, 3)`` vertices of a collection."""
+
+    name: str
+    reconstruct: Callable[[np.ndarray], np.ndarray]
+    channels: tuple = ()
+    depth: int | None = None
+    info: dict = field(default_factory=dict)
+
+
+def predict(net, operators, *, batch_size: int = 256) -> np.ndarray:
+    """Decode operators ``(N, C, k, k)`` (the network's channels, in its order) → vertices ``(N, n, 3)`` float64."""
+    import torch
+
+    device = next(net.parameters()).device
+    net.eval()
+    out = []
+    with torch.no_grad():
+        for s in range(0, len(operators), batch_size):
+            x = torch.as_tensor(np.asarray(operators[s:s + batch_size], dtype=np.float32), device=device)
+            out.append(net(x).double().cpu().numpy())
+    return np.concatenate(out) if out else np.zeros((0, net.n_vertices, 3))
+
+
+def _select(collection, channels) -> list[int]:
+    return [KINDS.index(c) for c in channels]
+
+
+def operatornet_method(net, collection, name: str | None = None) -> Method:
+    """OperatorNet decoding the collection's operators of its own channels."""
+    chans = _select(collection, net.channels)
+    name = name or f"OperatorNet ({channel_label(net.channels)})"
+    return Method(name, lambda idx: predict(net, collection.operators[idx][:, chans]), tuple(net.channels), net.depth)
+
+
+def nearest_neighbour(collection, indices, channels=KINDS, *, chunk: int = 512) -> np.ndarray:
+    """Index (into the collection) of the ``train`` shape whose operators are nearest, for each of ``indices``.
+
+    Distance: Frobenius norm of the difference of the stacked operators of ``channels``.
+    """
+    chans = _select(collection, tuple(channels))
+    train = collection.indices("train")
+    A = collection.operators[train][:, chans].reshape(len(train), -1).astype(np.float64)
+    a2 = np.einsum("ij,ij->i", A, A)
+    out = np.empty(len(indices), dtype=np.int64)
+    for s in range(0, len(indices), chunk):
+        B = collection.operators[np.asarray(indices[s:s + chunk])][:, chans].reshape(-1, A.shape[1]).astype(np.float64)
+        dist = a2[None, :] - 2 * B @ A.T  # + |b|², the same for every candidate
+        out[s:s + chunk] = train[np.argmin(dist, axis=1)]
+    return out
+
+
+def nearest_neighbour_method(collection, channels=KINDS, name: str | None = None) -> Method:
+    """The paper's NN baseline: retrieve the nearest training shape by operator distance."""
+    channels = tuple(channels)
+    name = name or f"Nearest neighbour ({channel_label(channels)})"
+    return Method(name, lambda idx: collection.vertices[nearest_neighbour(collection, idx, channels)].astype(np.float64),
+                  channels)
+
+
+def base_shape_method(collection) -> Method:
+    """The base shape for every input: the error of doing nothing."""
+    base = collection.base_basis.mesh.vertices
+    return Method("Base shape", lambda idx: np.broadcast_to(base, (len(idx), *base.shape)).copy())
+
+
+def shape_errors(gt, recon, faces, *, batch_size: int = 256) -> dict:
+    """Per-shape ``d_R`` (length²), ``d_V`` and ``d_E`` of reconstructions ``(N, n, 3)`` against ``gt``.
+
+    ``d_V`` is NaN for open meshes, whose volume is undefined.
+    """
+    gt, recon = np.asarray(gt, dtype=np.float64), np.asarray(recon, dtype=np.float64)
+    out = {"d_R": [], "d_V": [], "d_E": []}
+    for s in range(0, len(gt), batch_size):
+        g, r = gt[s:s + batch_size], recon[s:s + batch_size]
+        out["d_R"].append(d_R(g, r))
+        try:
+            out["d_V"].append(d_V(g, r, faces))
+        except ValueError:  # open mesh
+            out["d_V"].append(np.full(len(g), np.nan))
+        out["d_E"].append(d_E(g, r, faces))
+    return {k: np.concatenate(v) if v else np.zeros(0) for k, v in out.items()}
+
+
+def vertex_errors(gt, recon) -> np.ndarray:
+    """Per-vertex distance ``(..., n)`` between ``gt`` and ``recon`` rigidly aligned onto it (length)."""
+    return np.linalg.norm(rigid_align(recon, gt) - np.asarray(gt, dtype=np.float64), axis=-1)
+
+
+def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = None) -> list[dict]:
+    """One row per (method, test set): ``method``, ``channels``, ``depth``, ``split``, ``n_shapes`` and the
+    mean and median of ``d_R`` (length²), ``d_V``, ``d_E`` (keys ``d_R``, ``d_R_median``, ...).
+
+    ``methods``: :class:`Method` objects; ``extra``: fields added to every row (e.g. the preset).
+    """
+    rows = []
+    for m in methods:
+        for ts in test_sets:
+            idx = test_set_indices(collection, ts)
+            if len(idx) == 0:
+                continue
+            err = shape_errors(collection.vertices[idx], m.reconstruct(idx), collection.faces)
+            row = dict(method=m.name, channels=",".join(m.channels), depth=m.depth, split=ts, n_shapes=int(len(idx)))
+            for key, values in err.items():
+                row[key] = float(np.mean(values))
+                row[f"{key}_median"] = float(np.median(values))
+            rows.append(dict(row, **m.info, **(extra or {})))
+    return rows

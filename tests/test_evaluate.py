@@ -1,0 +1,105 @@
+"""Evaluation (methods × metrics × test sets) and the reproduction pipeline."""
+import json
+
+import numpy as np
+import pytest
+
+import opnet
+from opnet import evaluate, reproduce, train
+from opnet.data import toy
+
+from test_train import tiny_collection
+
+
+@pytest.fixture(scope="module")
+def coll():
+    return tiny_collection()
+
+
+def test_nearest_neighbour_is_the_brute_force_argmin(coll):
+    idx = coll.indices("test")
+    for channels in (opnet.KINDS, ("extrinsic",), ("area", "conformal")):
+        chans = [opnet.KINDS.index(c) for c in channels]
+        train_idx = coll.indices("train")
+        brute = [train_idx[np.argmin([np.linalg.norm(coll.operators[i][chans].astype(float) -
+                                                     coll.operators[j][chans].astype(float)) for j in train_idx])]
+                 for i in idx]
+        assert list(evaluate.nearest_neighbour(coll, idx, channels, chunk=3)) == brute
+    # a training shape's nearest neighbour is itself: zero error
+    m = evaluate.nearest_neighbour_method(coll)
+    t = coll.indices("train")[:5]
+    np.testing.assert_allclose(m.reconstruct(t), coll.vertices[t])
+
+
+def test_rows_hold_each_method_and_test_set_with_the_paper_metrics(coll):
+    methods = [evaluate.base_shape_method(coll), evaluate.nearest_neighbour_method(coll, ("extrinsic",))]
+    rows = evaluate.evaluate(coll, methods, extra={"preset": "tiny"})
+    assert [(r["method"], r["split"]) for r in rows] == [
+        (m.name, s) for m in methods for s in ("eval_subset", "test", "test_subjects")]
+    assert rows[0]["method"] == "Base shape" and rows[3]["method"] == "Nearest neighbour (Ext)"
+    base = rows[1]
+    idx = coll.indices("test")
+    gt, rec = coll.vertices[idx], np.broadcast_to(coll.base_basis.mesh.vertices, (len(idx), *coll.vertices.shape[1:]))
+    assert np.isclose(base["d_R"], opnet.d_R(gt, rec).mean())
+    assert np.isclose(base["d_E_median"], np.median(opnet.d_E(gt, rec, coll.faces)))
+    assert np.isclose(base["d_V"], opnet.d_V(gt, rec, coll.faces).mean())
+    assert base["n_shapes"] == 4 and base["preset"] == "tiny"
+
+
+def test_d_V_is_nan_on_open_meshes():
+    base = toy.capsule("quick")
+    keep = np.flatnonzero(base.vertices[base.faces].mean(1)[:, 2] < 1.0)  # cut off a cap
+    gt = base.vertices[None]
+    err = evaluate.shape_errors(gt, gt * 1.1, base.faces[keep])
+    assert np.isnan(err["d_V"]).all() and np.isfinite(err["d_E"]).all()
+
+
+def test_vertex_errors_ignore_rigid_motions(coll):
+    from scipy.spatial.transform import Rotation
+
+    X = coll.vertices[:2].astype(float)
+    moved = X @ Rotation.from_euler("xyz", [0.3, -1, 2]).as_matrix().T + 5.0
+    assert np.abs(evaluate.vertex_errors(X, moved)).max() < 1e-9
+
+
+def test_channel_labels():
+    assert evaluate.channel_label(opnet.KINDS) == "Int+Ext"
+    assert evaluate.channel_label(("conformal", "area")) == "Int"
+    assert evaluate.channel_label("extrinsic") == "Ext"
+    assert evaluate.channel_label("area,extrinsic") == "A+E"
+
+
+def test_operatornet_method_decodes_its_channels(coll):
+    net, _ = train.fit(coll, channels="E+C", epochs=2, hidden=32, progress=False)
+    m = evaluate.operatornet_method(net, coll)
+    assert m.name == "OperatorNet (E+C)" and m.channels == ("conformal", "extrinsic")
+    idx = coll.indices("test")
+    expected = evaluate.predict(net, coll.operators[idx][:, [1, 2]])
+    np.testing.assert_array_equal(m.reconstruct(idx), expected)
+
+
+def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch):
+    tiny = tiny_collection("humans")
+    monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: tiny)
+    budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16)
+    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False)
+    saved = json.loads((tmp_path / "results.json").read_text())
+    assert saved == json.loads(json.dumps(rows))
+    t1 = [r for r in saved if r["table"] == "table1"]
+    assert {(r["method"], r["split"]) for r in t1} == {
+        (m, s) for m in [*reproduce.TABLE1, "Nearest neighbour (Int+Ext)", "Base shape"] for s in evaluate.TEST_SETS}
+    abl = [r for r in saved if r["table"] == "ablation"]
+    assert len(abl) == 28 and {r["split"] for r in abl} == {"test"}
+    assert np.isfinite(reproduce.ablation_table(saved)).all()
+    for r in saved:
+        assert {"method", "channels", "depth", "split", "d_R", "d_V", "d_E", "n_shapes", "train_seconds", "preset",
+                "device"} <= set(r)
+    md = (tmp_path / "results.md").read_text()
+    assert "OperatorNet (Int+Ext)" in md and "1.11" in md and "Ablation" in md and "8.61" in md
+    for name in ("training_curves", "ablation", "reconstructions_test", "reconstructions_test_subjects"):
+        assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
+    # a second call trains nothing more: every run is finished
+    mtimes = {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
+    assert len(mtimes) == 31
+    reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, figures=False)
+    assert mtimes == {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}

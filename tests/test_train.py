@@ -1,0 +1,244 @@
+"""Training: fit, checkpoints, exact resume (also after SIGKILL), mismatch errors, NaN stop, CLI, DDP."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import torch
+
+import opnet
+from opnet import train
+from opnet.data import toy
+from opnet.data.collections import assemble, save_collection
+
+FAST = dict(hidden=64, batch_size=8, lr=1e-3, progress=False)
+
+
+def tiny_collection(name="tiny", n=40, seed=0):
+    """``n`` bent and bulged capsules (430 vertices, k = 20) with train / val / test / test_subjects splits."""
+    rng = np.random.default_rng(seed)
+    base = toy.capsule("quick")
+    angles, amounts = rng.uniform(-1.2, 1.2, n), rng.uniform(-0.25, 0.3, n)
+    V = np.stack([toy.bend(toy.bulge(base.vertices, b), a) for a, b in zip(angles, amounts)])
+    split = np.array(["train"] * (n - 12) + ["val"] * 4 + ["test"] * 4 + ["test_subjects"] * 4)
+    sub = np.array([f"s{i // 4}" for i in range(n)])
+    meta = dict(name=name, preset="tiny", resolution="430", seed=seed, generator_version="test")
+    return assemble(V, base.faces, base.vertices, split, sub, {"angle": angles}, meta, k=20, progress=False)
+
+
+@pytest.fixture(scope="module")
+def coll():
+    return tiny_collection()
+
+
+def _weights(net):
+    return {k: v.detach().clone() for k, v in net.state_dict().items()}
+
+
+def _same_history(a, b):
+    strip = [{k: v for k, v in h.items() if k != "seconds"} for h in a]
+    return strip == [{k: v for k, v in h.items() if k != "seconds"} for h in b]
+
+
+def test_fit_lowers_the_loss_and_selects_on_val(coll, tmp_path):
+    net, hist = train.fit(coll, epochs=30, run_dir=tmp_path / "run", **FAST)
+    assert isinstance(net, opnet.OperatorNet) and not net.training
+    assert [h["epoch"] for h in hist] == list(range(1, 31))
+    assert hist[-1]["train_loss"] < 0.2 * hist[0]["train_loss"]
+    assert sorted(p.name for p in (tmp_path / "run").iterdir()) == sorted(train.RUN_FILES)
+    best = min(hist, key=lambda h: h["val_d_R"])
+    # the returned network is the best epoch's: its val d_R is the best one in the history
+    val = coll.indices("val")
+    pred = opnet.evaluate.predict(net, coll.operators[val])
+    assert np.isclose(opnet.d_R(coll.vertices[val], pred).mean(), best["val_d_R"], rtol=1e-4)
+    assert json.loads((tmp_path / "run" / "history.json").read_text()) == hist
+    config = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert config["data"]["fingerprint"] == train.collection_fingerprint(coll)
+    assert config["model"]["channels"] == list(opnet.KINDS) and config["versions"]["torch"] == torch.__version__
+
+
+def test_checkpoint_round_trip(coll, tmp_path):
+    net, _ = train.fit(coll, epochs=3, run_dir=tmp_path, **FAST)
+    loaded = train.load_model(tmp_path, coll, channels=opnet.KINDS)
+    x = torch.from_numpy(coll.operators[:5])
+    assert torch.equal(loaded(x), net(x))
+    assert all(torch.equal(a, b) for a, b in zip(loaded.state_dict().values(), net.state_dict().values()))
+
+
+def test_resume_gives_the_same_weights_and_history(coll, tmp_path):
+    full, hist_full = train.fit(coll, epochs=6, run_dir=tmp_path / "a", **FAST)
+    train.fit(coll, epochs=2, run_dir=tmp_path / "b", **FAST)  # "stopped" after epoch 2
+    resumed, hist_resumed = train.fit(coll, epochs=6, run_dir=tmp_path / "b", **FAST)
+    assert _same_history(hist_full, hist_resumed)
+    assert all(torch.equal(a, b) for a, b in zip(_weights(full).values(), _weights(resumed).values()))
+    a = torch.load(tmp_path / "a" / "latest.pt", weights_only=True)
+    b = torch.load(tmp_path / "b" / "latest.pt", weights_only=True)
+    assert all(torch.equal(a["model"][k], b["model"][k]) for k in a["model"])
+    # a finished run is only loaded
+    again, hist_again = train.fit(coll, epochs=6, run_dir=tmp_path / "b", **FAST)
+    assert hist_again == hist_resumed
+
+
+_KILLED_RUN = """
+import sys, opnet
+from opnet import train
+coll = opnet.data.read_collection(sys.argv[1])
+train.fit(coll, epochs=int(sys.argv[3]), run_dir=sys.argv[2], hidden=64, batch_size=8, progress=False)
+"""
+
+
+def test_a_run_killed_with_sigkill_resumes_to_the_uninterrupted_result(coll, tmp_path):
+    manifest = save_collection(coll, tmp_path / "data" / "tiny")
+    epochs = 150
+    ref, hist_ref = train.fit(coll, epochs=epochs, run_dir=tmp_path / "ref", **FAST)
+    run = tmp_path / "killed"
+    proc = subprocess.Popen([sys.executable, "-c", _KILLED_RUN, str(manifest), str(run), str(epochs)])
+    deadline = time.time() + 120
+    while time.time() < deadline and not (run / "latest.pt").exists():  # kill it in the middle of its epochs
+        time.sleep(0.05)
+    time.sleep(0.2)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    done = train.read_history(run)
+    assert 0 < len(done) < epochs, "the run finished before it could be killed; the test needs a slower run"
+    resumed, hist = train.fit(coll, epochs=epochs, run_dir=run, **FAST)
+    assert _same_history(hist_ref, hist)
+    assert all(torch.equal(a, b) for a, b in zip(_weights(ref).values(), _weights(resumed).values()))
+
+
+def test_mismatched_runs_and_checkpoints_are_refused(coll, tmp_path):
+    train.fit(coll, epochs=1, run_dir=tmp_path, **FAST)
+    with pytest.raises(train.CheckpointError, match="channels area,conformal,extrinsic.*channels extrinsic"):
+        train.fit(coll, channels="Ext", epochs=2, run_dir=tmp_path, **FAST)
+    other = tiny_collection("other", seed=1)
+    with pytest.raises(train.CheckpointError, match=r"tiny/tiny/430 seed 0 .*other/tiny/430 seed 1"):
+        train.fit(other, epochs=2, run_dir=tmp_path, **FAST)
+    with pytest.raises(train.CheckpointError, match="lr"):
+        train.fit(coll, epochs=2, run_dir=tmp_path, **dict(FAST, lr=0.5))
+    with pytest.raises(train.CheckpointError, match="trained on tiny.*but this collection is other"):
+        train.load_model(tmp_path, other)
+    with pytest.raises(train.CheckpointError, match="channels area,conformal,extrinsic, not area"):
+        train.load_model(tmp_path, channels=["area"])
+    # resume=False replaces the run
+    _, hist = train.fit(coll, channels="Ext", epochs=1, run_dir=tmp_path, resume=False, **FAST)
+    assert train.load_model(tmp_path).channels == ("extrinsic",)
+
+
+def test_corrupt_or_foreign_checkpoints_name_the_file(coll, tmp_path):
+    train.fit(coll, epochs=1, run_dir=tmp_path, **FAST)
+    best = tmp_path / "best.pt"
+    best.write_bytes(best.read_bytes()[:1000])  # truncated
+    with pytest.raises(train.CheckpointError, match=f"{best}.*corrupt"):
+        train.load_model(tmp_path)
+    torch.save({"weights": torch.zeros(2)}, best)
+    with pytest.raises(train.CheckpointError, match="not an opnet checkpoint"):
+        train.load_model(best)
+
+    class Evil:  # pickled code is refused by weights_only=True
+        def __reduce__(self):
+            return (os.system, ("echo hacked",))
+
+    torch.save({"format": "opnet-checkpoint", "evil": Evil()}, best)
+    with pytest.raises(train.CheckpointError, match=str(best)):
+        train.load_model(best)
+    (tmp_path / "latest.pt").write_bytes(b"garbage")
+    with pytest.raises(train.CheckpointError, match="latest.pt"):
+        train.fit(coll, epochs=2, run_dir=tmp_path, **FAST)
+
+
+def test_nan_loss_stops_with_the_epoch_and_last_good_checkpoint(coll, tmp_path, monkeypatch):
+    calls = {"n": 0}
+    real = train.rigid_alignment_loss
+    steps_per_epoch = -(-len(coll.indices("train")) // FAST["batch_size"])
+
+    def flaky(pred, target, reduction="mean"):
+        calls["n"] += pred.requires_grad  # training steps only, not validation
+        out = real(pred, target, reduction)
+        return out * np.nan if calls["n"] > 2 * steps_per_epoch else out
+
+    monkeypatch.setattr(train, "rigid_alignment_loss", flaky)
+    with pytest.raises(train.TrainingError, match=r"loss \(nan\) became NaN or infinite in epoch 3; the last good checkpoint is .*latest.pt \(epoch 2\)"):
+        train.fit(coll, epochs=5, run_dir=tmp_path, **FAST)
+    assert train.read_history(tmp_path)[-1]["epoch"] == 2
+
+
+def test_bad_arguments(coll, tmp_path):
+    with pytest.raises(ValueError, match="channels"):
+        train.fit(coll, channels="area,volume", epochs=1)
+    with pytest.raises(ValueError, match="epochs must be a positive integer"):
+        train.fit(coll, epochs=0)
+    with pytest.raises(ValueError, match="lr must be a positive number"):
+        train.fit(coll, epochs=1, lr=float("nan"))
+    with pytest.raises(ValueError, match="device"):
+        train.fit(coll, epochs=1, device="tpu")
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ValueError, match="is a file"):
+        train.fit(coll, epochs=1, run_dir=tmp_path / "file", **FAST)
+    assert train.parse_channels("A+E") == ("area", "extrinsic")
+    assert train.parse_channels("extrinsic, area") == ("extrinsic", "area")
+
+
+def test_identity_subtraction_is_inside_the_network():
+    torch.manual_seed(0)
+    a = opnet.OperatorNet(50, k=10, hidden=16, subtract_identity=True)
+    b = opnet.OperatorNet(50, k=10, hidden=16, subtract_identity=False)
+    b.load_state_dict(a.state_dict())
+    D = torch.randn(2, 3, 10, 10)
+    assert torch.allclose(a(D), b(D - torch.eye(10)))
+    assert not torch.allclose(a(D), b(D))
+
+
+def _cli(*args, env=None, **kw):
+    return subprocess.run([sys.executable, "-m", "opnet", *args], capture_output=True, text=True, env=env, **kw)
+
+
+def test_cli_help_explains_every_flag():
+    from opnet.__main__ import _parser
+
+    subcommands = _parser()._subparsers._group_actions[0].choices
+    assert set(subcommands) == {"train", "evaluate", "reproduce"}
+    for name, sub in subcommands.items():
+        for action in sub._actions:
+            assert action.help, (name, action.option_strings)
+        out = _cli(name, "--help")
+        assert out.returncode == 0 and "--device" in out.stdout
+
+
+def test_cli_train_and_evaluate_on_a_saved_collection(coll, tmp_path):
+    manifest = save_collection(coll, tmp_path / "data" / "tiny")
+    run = tmp_path / "run"
+    out = _cli("train", "--collection", str(manifest), "--channels", "A+E", "--epochs", "2", "--hidden", "32",
+               "--batch-size", "8", "--run-dir", str(run))
+    assert out.returncode == 0, out.stderr
+    assert "best epoch" in out.stdout and train.load_model(run).channels == ("area", "extrinsic")
+    out = _cli("evaluate", "--run-dir", str(run), "--collection", str(manifest), "--json", str(tmp_path / "e.json"))
+    assert out.returncode == 0, out.stderr
+    rows = json.loads((tmp_path / "e.json").read_text())
+    assert {r["method"] for r in rows} == {"OperatorNet (A+E)", "Nearest neighbour (A+E)", "Base shape"}
+    bad = _cli("train", "--collection", "animals", "--run-dir", str(run))
+    assert bad.returncode == 2 and "--collection must be" in bad.stderr
+
+
+def test_ddp_with_two_processes_matches_one_process(coll, tmp_path):
+    """torchrun --nproc_per_node 2 (gloo) gives the single-process result with the same global batch."""
+    manifest = save_collection(coll, tmp_path / "data" / "tiny")
+    common = ["--collection", str(manifest), "--epochs", "3", "--hidden", "32", "--batch-size", "7"]
+    single = _cli("train", *common, "--run-dir", str(tmp_path / "one"))
+    assert single.returncode == 0, single.stderr
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    ddp = subprocess.run([sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_port",
+                          str(29500 + os.getpid() % 1000), "-m", "opnet", "train", *common, "--run-dir",
+                          str(tmp_path / "two")], capture_output=True, text=True, env=env)
+    assert ddp.returncode == 0, ddp.stderr[-3000:]
+    one = torch.load(tmp_path / "one" / "latest.pt", weights_only=True)
+    two = torch.load(tmp_path / "two" / "latest.pt", weights_only=True)
+    assert two["config"]["world_size"] == 2 and one["config"]["world_size"] == 1
+    for k in one["model"]:
+        torch.testing.assert_close(two["model"][k], one["model"][k], rtol=1e-4, atol=1e-5)
+    for h1, h2 in zip(one["history"], two["history"]):
+        assert np.isclose(h1["train_loss"], h2["train_loss"], rtol=1e-4)
+        assert np.isclose(h1["val_d_R"], h2["val_d_R"], rtol=1e-4)
