@@ -9,6 +9,16 @@ import sys
 from .shape_difference import KINDS
 
 
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m opnet", description="OperatorNet: train, evaluate, reproduce the paper.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -29,11 +39,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="input operators, comma-separated subset of area,conformal,extrinsic, or a short name "
                         "(A+E+C, Area, Ext, Conf, A+E, A+C, E+C); default all three")
     t.add_argument("--depth", type=int, default=1, choices=[1, 2, 3, 4], help="convolution layers in the encoder (1)")
-    t.add_argument("--epochs", type=int, default=50, help="passes over the training split (50); more continues a run")
-    t.add_argument("--batch-size", type=int, default=32, help="shapes per step, global across processes (32)")
+    t.add_argument("--epochs", type=_positive, default=50, help="passes over the training split (50); more continues a run")
+    t.add_argument("--batch-size", type=_positive, default=32, help="shapes per step, global across processes (32)")
     t.add_argument("--lr", type=float, default=1e-3, help="Adam learning rate (1e-3)")
     t.add_argument("--seed", type=int, default=0, help="initialisation and shuffling seed (0)")
-    t.add_argument("--hidden", type=int, default=1024, help="width of the two hidden dense layers (1024)")
+    t.add_argument("--hidden", type=_positive, default=1024, help="width of the two hidden dense layers (1024)")
     t.add_argument("--no-subtract-identity", action="store_true",
                    help="feed the network D instead of D - I (the default subtracts the identity)")
     t.add_argument("--device", default="auto", help="auto (CUDA if present), cpu, cuda, cuda:N")
@@ -69,17 +79,31 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _init_distributed():
-    """Initialise the process group when started by torchrun (WORLD_SIZE > 1)."""
+def _init_distributed(device: str):
+    """Initialise the process group when started by torchrun (WORLD_SIZE > 1): nccl for CUDA, else gloo."""
     if int(os.environ.get("WORLD_SIZE", "1")) <= 1:
         return False
     import torch
 
-    backend = "nccl" if torch.cuda.is_available() else "gloo"
+    from .train import resolve_device
+
+    backend = "nccl" if resolve_device(device).type == "cuda" else "gloo"
     if backend == "nccl":
         torch.cuda.set_device(int(os.environ.get("LOCAL_RANK", 0)))
     torch.distributed.init_process_group(backend)
     return True
+
+
+def _rank() -> int:
+    import torch
+
+    return torch.distributed.get_rank()
+
+
+def _barrier() -> None:
+    import torch
+
+    torch.distributed.barrier()
 
 
 def _table(rows) -> str:
@@ -102,7 +126,20 @@ def _collection(args):
 
 
 def main(argv=None) -> int:
+    """Run a command; opnet's own errors are printed as one line (exit status 1), not as a traceback."""
+    from .data import CollectionError
+    from .mesh import MeshError
+    from .train import CheckpointError, TrainingError
+
     args = _parser().parse_args(argv)
+    try:
+        return _run(args)
+    except (CheckpointError, TrainingError, CollectionError, MeshError, ValueError) as exc:
+        print(f"python -m opnet {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+
+
+def _run(args) -> int:
     from .data import load_collection, read_collection
 
     if args.command == "train":
@@ -112,9 +149,13 @@ def main(argv=None) -> int:
             channels = parse_channels(args.channels)
         except ValueError as exc:
             _parser().error(str(exc))
-        distributed = _init_distributed()
+        distributed = _init_distributed(args.device)
         try:
+            if distributed and _rank() != 0:
+                _barrier()  # rank 0 builds the collection if it is missing, the others then read it
             coll = _collection(args)
+            if distributed and _rank() == 0:
+                _barrier()
             _, history = fit(coll, channels=channels, depth=args.depth, epochs=args.epochs,
                              batch_size=args.batch_size, lr=args.lr, seed=args.seed, device=args.device,
                              run_dir=args.run_dir, resume=not args.restart, hidden=args.hidden,

@@ -23,6 +23,7 @@ from typing import Callable
 
 import numpy as np
 
+from .mesh import edge_face_counts
 from .metrics import d_E, d_R, d_V, rigid_align
 from .shape_difference import KINDS
 
@@ -80,15 +81,33 @@ def predict(net, operators, *, batch_size: int = 256) -> np.ndarray:
     return np.concatenate(out) if out else np.zeros((0, net.n_vertices, 3))
 
 
-def _select(collection, channels) -> list[int]:
+def _select(channels) -> list[int]:
     return [KINDS.index(c) for c in channels]
 
 
 def operatornet_method(net, collection, name: str | None = None) -> Method:
     """OperatorNet decoding the collection's operators of its own channels."""
-    chans = _select(collection, net.channels)
+    chans = _select(net.channels)
     name = name or f"OperatorNet ({channel_label(net.channels)})"
     return Method(name, lambda idx: predict(net, collection.operators[idx][:, chans]), tuple(net.channels), net.depth)
+
+
+class _OperatorIndex:
+    """The ``train`` shapes' stacked operators of some channels, for nearest-neighbour queries."""
+
+    def __init__(self, collection, channels):
+        self.collection, self.chans = collection, _select(tuple(channels))
+        self.train = collection.indices("train")
+        self.A = collection.operators[self.train][:, self.chans].reshape(len(self.train), -1).astype(np.float64)
+        self.a2 = np.einsum("ij,ij->i", self.A, self.A)
+
+    def query(self, indices, chunk: int = 512) -> np.ndarray:
+        out = np.empty(len(indices), dtype=np.int64)
+        for s in range(0, len(indices), chunk):
+            B = self.collection.operators[np.asarray(indices[s:s + chunk])][:, self.chans]
+            dist = self.a2[None, :] - 2 * B.reshape(len(B), -1).astype(np.float64) @ self.A.T  # + |b|², the same for all
+            out[s:s + chunk] = self.train[np.argmin(dist, axis=1)]
+        return out
 
 
 def nearest_neighbour(collection, indices, channels=KINDS, *, chunk: int = 512) -> np.ndarray:
@@ -96,24 +115,15 @@ def nearest_neighbour(collection, indices, channels=KINDS, *, chunk: int = 512) 
 
     Distance: Frobenius norm of the difference of the stacked operators of ``channels``.
     """
-    chans = _select(collection, tuple(channels))
-    train = collection.indices("train")
-    A = collection.operators[train][:, chans].reshape(len(train), -1).astype(np.float64)
-    a2 = np.einsum("ij,ij->i", A, A)
-    out = np.empty(len(indices), dtype=np.int64)
-    for s in range(0, len(indices), chunk):
-        B = collection.operators[np.asarray(indices[s:s + chunk])][:, chans].reshape(-1, A.shape[1]).astype(np.float64)
-        dist = a2[None, :] - 2 * B @ A.T  # + |b|², the same for every candidate
-        out[s:s + chunk] = train[np.argmin(dist, axis=1)]
-    return out
+    return _OperatorIndex(collection, channels).query(indices, chunk)
 
 
 def nearest_neighbour_method(collection, channels=KINDS, name: str | None = None) -> Method:
     """The paper's NN baseline: retrieve the nearest training shape by operator distance."""
     channels = tuple(channels)
     name = name or f"Nearest neighbour ({channel_label(channels)})"
-    return Method(name, lambda idx: collection.vertices[nearest_neighbour(collection, idx, channels)].astype(np.float64),
-                  channels)
+    index = _OperatorIndex(collection, channels)
+    return Method(name, lambda idx: collection.vertices[index.query(idx)].astype(np.float64), channels)
 
 
 def base_shape_method(collection) -> Method:
@@ -128,14 +138,12 @@ def shape_errors(gt, recon, faces, *, batch_size: int = 256) -> dict:
     ``d_V`` is NaN for open meshes, whose volume is undefined.
     """
     gt, recon = np.asarray(gt, dtype=np.float64), np.asarray(recon, dtype=np.float64)
+    closed = bool(np.all(edge_face_counts(np.asarray(faces))[1] == 2))
     out = {"d_R": [], "d_V": [], "d_E": []}
     for s in range(0, len(gt), batch_size):
         g, r = gt[s:s + batch_size], recon[s:s + batch_size]
         out["d_R"].append(d_R(g, r))
-        try:
-            out["d_V"].append(d_V(g, r, faces))
-        except ValueError:  # open mesh
-            out["d_V"].append(np.full(len(g), np.nan))
+        out["d_V"].append(d_V(g, r, faces) if closed else np.full(len(g), np.nan))
         out["d_E"].append(d_E(g, r, faces))
     return {k: np.concatenate(v) if v else np.zeros(0) for k, v in out.items()}
 
@@ -162,5 +170,5 @@ def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = N
             for key, values in err.items():
                 row[key] = float(np.mean(values))
                 row[f"{key}_median"] = float(np.median(values))
-            rows.append(dict(row, **m.info, **(extra or {})))
+            rows.append({**row, **m.info, **(extra or {})})
     return rows

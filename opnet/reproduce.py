@@ -26,7 +26,9 @@ import numpy as np
 
 from .evaluate import (TEST_SETS, base_shape_method, evaluate, nearest_neighbour,
                        nearest_neighbour_method, operatornet_method, test_set_indices)
+from ._files import atomic_write
 from .shape_difference import KINDS
+from .train import CHANNEL_SETS
 
 __all__ = ["reproduce", "run_path", "ablation_table", "results_markdown", "Budget", "BUDGETS", "TABLE1", "ABLATION_SETS", "ABLATION_DEPTHS", "PAPER_TABLE1",
            "PAPER_ABLATION"]
@@ -53,8 +55,7 @@ BUDGETS = {
 TABLE1 = {"OperatorNet (Int+Ext)": KINDS, "OperatorNet (Int)": ("area", "conformal"),
           "OperatorNet (Ext)": ("extrinsic",)}
 #: The ablation's columns (Appendix B, in the paper's order) and rows.
-ABLATION_SETS = {"Area": ("area",), "Ext": ("extrinsic",), "Conf": ("conformal",), "A+E": ("area", "extrinsic"),
-                 "A+C": ("area", "conformal"), "E+C": ("conformal", "extrinsic"), "A+E+C": KINDS}
+ABLATION_SETS = CHANNEL_SETS
 ABLATION_DEPTHS = (1, 2, 3, 4)
 
 #: The paper's Table 1 on DFAUST (d_R ×10⁻⁴, d_V, d_E), for reference beside ours.
@@ -102,24 +103,25 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     device = resolve_device(device)
     t_start = time.perf_counter()
     coll = load_collection("humans", preset, root=data_root, progress=progress)
-    info = dict(preset=preset, device=str(device))
+    info = dict(preset=preset)
 
     def train(channels, depth, epochs, tag):
         run_dir = run_path(out, tag, channels, depth)
         net, history = fit(coll, channels=channels, depth=depth, epochs=epochs, batch_size=budget.batch_size,
                            lr=budget.lr, hidden=budget.hidden, device=device, run_dir=run_dir, progress=progress)
-        return net, history
+        trained_on = json.loads((run_dir / "config.json").read_text())["device"]  # a reused run may come from elsewhere
+        return net, history, dict(epochs=len(history), train_seconds=round(sum(e["seconds"] for e in history), 1),
+                                  device=trained_on)
 
-    nets, histories, rows = {}, {}, []
+    nets, histories, devices = {}, {}, {}
     for name, channels in TABLE1.items():
-        nets[name], histories[name] = train(channels, 1, budget.epochs, "table1")
+        nets[name], histories[name], devices[name] = train(channels, 1, budget.epochs, "table1")
     methods = [operatornet_method(nets[name], coll, name) for name in TABLE1]
     for m in methods:
-        h = histories[m.name]
-        m.info = dict(table="table1", epochs=len(h), train_seconds=round(sum(e["seconds"] for e in h), 1))
+        m.info = dict(table="table1", **devices[m.name])
     baselines = [nearest_neighbour_method(coll, KINDS), base_shape_method(coll)]
     for m in baselines:
-        m.info = dict(table="table1", epochs=None, train_seconds=None)
+        m.info = dict(table="table1", epochs=None, train_seconds=None, device=str(device))
     rows = evaluate(coll, methods + baselines, TEST_SETS, extra=info)
     context = dict(preset=preset, budget=asdict(budget), machine=_machine(device), collection=repr(coll),
                    splits={s: int(np.sum(coll.split == s)) for s in ("train", "val", "test", "test_subjects")},
@@ -131,9 +133,9 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     if ablation:
         for depth in ABLATION_DEPTHS:
             for label, channels in ABLATION_SETS.items():
-                net, h = train(channels, depth, budget.ablation_epochs, "ablation")
+                net, _, run_info = train(channels, depth, budget.ablation_epochs, "ablation")
                 m = operatornet_method(net, coll, f"OperatorNet ({label}) depth {depth}")
-                m.info = dict(table="ablation", epochs=len(h), train_seconds=round(sum(e["seconds"] for e in h), 1))
+                m.info = dict(table="ablation", **run_info)
                 rows += evaluate(coll, [m], ("test",), extra=info)
         _write(out, rows, context, time.perf_counter() - t_start)
         if figures:
@@ -176,12 +178,9 @@ def _fmt(v, scale=1.0, digits=3) -> str:
 
 
 def _write(out: Path, rows: list[dict], context: dict, seconds: float) -> None:
-    tmp = out / ".results.json.tmp"
-    tmp.write_text(json.dumps(rows, indent=1))
-    os.replace(tmp, out / "results.json")
-    tmp = out / ".results.md.tmp"
-    tmp.write_text(results_markdown(rows, dict(context, wall_seconds=round(seconds, 1))))
-    os.replace(tmp, out / "results.md")
+    atomic_write(out / "results.json", lambda f: f.write(json.dumps(rows, indent=1).encode()))
+    md = results_markdown(rows, dict(context, wall_seconds=round(seconds, 1)))
+    atomic_write(out / "results.md", lambda f: f.write(md.encode()))
 
 
 def results_markdown(rows: list[dict], context: dict) -> str:

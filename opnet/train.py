@@ -39,6 +39,7 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
+from ._files import atomic_write, remove_stale_tmp
 from .model import OperatorNet, rigid_alignment_loss
 from .shape_difference import KINDS
 
@@ -47,6 +48,8 @@ __all__ = ["fit", "load_model", "read_history", "collection_fingerprint", "parse
 
 CHECKPOINT_FORMAT = "opnet-checkpoint"
 CHECKPOINT_VERSION = 1
+# Bump when a change to the training code changes what a run produces: runs of other versions are not resumed.
+TRAINING_VERSION = 1
 RUN_FILES = ("config.json", "latest.pt", "best.pt", "history.json")
 
 #: The paper's input combinations (Table 1 and the ablation of Appendix B), by their short names.
@@ -118,30 +121,19 @@ def _describe(config: dict) -> str:
 # files
 
 
-def _atomic_write(path: Path, write) -> None:
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        with open(tmp, "wb") as f:
-            write(f)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def _save_torch(obj, path: Path) -> None:
-    _atomic_write(path, lambda f: torch.save(obj, f))
+    atomic_write(path, lambda f: torch.save(obj, f))
 
 
 def _save_json(obj, path: Path) -> None:
-    _atomic_write(path, lambda f: f.write(json.dumps(obj, indent=1).encode()))
+    atomic_write(path, lambda f: f.write(json.dumps(obj, indent=1).encode()))
 
 
 def _read_checkpoint(path: Path, map_location="cpu") -> dict:
     path = Path(path)
     if not path.is_file():
-        raise CheckpointError(f"no checkpoint at {path}.")
+        raise CheckpointError(f"no checkpoint at {path}: train one with opnet.train.fit(..., run_dir=...) or "
+                              "`python -m opnet train --run-dir ...`, or check the path.")
     try:
         ckpt = torch.load(path, map_location=map_location, weights_only=True)
     except Exception as exc:  # truncated, not a zip, pickled code refused by weights_only, ...
@@ -275,6 +267,11 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
         raise ValueError(f"the collection needs shapes in both 'train' and 'val' (it has {len(train_idx)} and "
                          f"{len(val_idx)}); give it a splits.csv or use a larger preset.")
     chans = [KINDS.index(c) for c in channels]
+    for name, arr in (("operators", collection.operators), ("vertices", collection.vertices)):
+        bad = ~np.isfinite(arr[np.concatenate([train_idx, val_idx])]).reshape(len(train_idx) + len(val_idx), -1).all(1)
+        if bad.any():
+            raise ValueError(f"the collection's {name} hold NaN or infinite values in {bad.sum()} train/val shapes "
+                             f"(first: shape {np.concatenate([train_idx, val_idx])[bad][0]}); repair or drop them.")
 
     def tensors(idx):
         ops = np.ascontiguousarray(collection.operators[idx][:, chans], dtype=np.float32)
@@ -287,8 +284,8 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
         net = OperatorNet(collection.vertices.shape[1], collection.base_basis.k, channels, depth, hidden,
                           subtract_identity).to(device)
     optimizer = torch.optim.Adam(net.parameters(), lr=lr)
-    config = dict(format="opnet-run", data=_data_config(collection), model=net.config(),
-                  train=dict(epochs=epochs, batch_size=batch_size, lr=lr, seed=seed),
+    config = dict(data=_data_config(collection), model=net.config(),
+                  train=dict(epochs=epochs, batch_size=batch_size, lr=lr, seed=seed, version=TRAINING_VERSION),
                   versions=dict(opnet=_opnet_version(), torch=str(torch.__version__)), device=str(device), world_size=world)
 
     history, best_val, best_epoch, start = [], math.inf, 0, 0
@@ -296,10 +293,16 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
     if run_dir is not None:
         if run_dir.exists() and not run_dir.is_dir():
             raise ValueError(f"run_dir {run_dir} is a file; give a directory path.")
+        if rank == 0 and run_dir.is_dir():
+            remove_stale_tmp(run_dir.glob(".*.tmp-*"))  # left by a killed run
         latest = run_dir / "latest.pt"
         if latest.exists() and resume:
             ckpt = _read_checkpoint(latest, map_location=device)
             _check_same_run(ckpt["config"], config, run_dir)
+            if ckpt["epoch"] > epochs:
+                raise CheckpointError(f"{run_dir} has already trained {ckpt['epoch']} epochs, more than epochs={epochs}; "
+                                      f"ask for epochs >= {ckpt['epoch']} to load it, or resume=False (--restart) to "
+                                      "train it again.")
             net.load_state_dict(ckpt["model"])
             optimizer.load_state_dict(ckpt["optimizer"])
             history, best_val, best_epoch, start = ckpt["history"], ckpt["best_val"], ckpt["best_epoch"], ckpt["epoch"]
@@ -327,14 +330,18 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
                 batch = order[s:s + batch_size]
                 part, weight = _shard(batch, rank, world)
                 pred = model(train_ops[part])
-                if not torch.isfinite(pred).all():
-                    _diverged(epoch, "the network's output", history, start, run_dir, lr)
-                per_shape = rigid_alignment_loss(pred, train_X[part], reduction="none")
+                finite = torch.isfinite(pred).all()
+                # a non-finite output is replaced by zeros for Kabsch; the step is refused below in any case
+                per_shape = rigid_alignment_loss(torch.where(finite, pred, torch.zeros_like(pred)), train_X[part],
+                                                 reduction="none")
                 weight = torch.as_tensor(weight, dtype=per_shape.dtype, device=device)
                 # DDP averages gradients over the `world` ranks: scale so that the sum is the global batch mean
                 loss = (per_shape * weight).sum() * (world / len(batch))
-                if not torch.isfinite(loss):  # before the step: the weights stay those of the last good epoch
-                    _diverged(epoch, f"the training loss ({loss.item()})", history, start, run_dir, lr)
+                ok = (finite & torch.isfinite(loss)).to(torch.int32)
+                if world > 1:  # every rank stops together
+                    torch.distributed.all_reduce(ok, op=torch.distributed.ReduceOp.MIN)
+                if not ok.item():  # before the step (earlier steps of this epoch are lost; the checkpoint is not)
+                    _diverged(epoch, "the network's output or training loss", history, start, run_dir, lr)
                 optimizer.zero_grad(set_to_none=True)
                 loss.backward()
                 optimizer.step()
@@ -343,6 +350,8 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
                 torch.distributed.all_reduce(loss_sum)
             train_loss = loss_sum.item() / n
             val = _val_d_R(net, val_ops, val_X)
+            if not (math.isfinite(val) and math.isfinite(train_loss)):  # e.g. the last step made the weights NaN
+                _diverged(epoch, f"the validation d_R ({val})", history, start, run_dir, lr)
             history.append(dict(epoch=epoch, train_loss=train_loss, val_d_R=val, seconds=time.perf_counter() - t0))
             improved = val < best_val
             if improved:
@@ -379,15 +388,17 @@ def _diverged(epoch, what, history, start, run_dir, lr):
 
 def _check_same_run(saved: dict, wanted: dict, run_dir: Path) -> None:
     """Refuse to resume a run of other data, another network or other hyper-parameters (``epochs`` may grow)."""
-    for part in ("data", "model"):
-        if saved.get(part) != wanted[part]:
-            raise CheckpointError(f"{run_dir} holds a run trained on {_describe(saved)}, but this call trains on "
-                                  f"{_describe(wanted)}; choose another run_dir, or pass resume=False to replace it.")
-    same = {k: v for k, v in saved["train"].items() if k != "epochs"}
-    new = {k: v for k, v in wanted["train"].items() if k != "epochs"}
-    if same != new:
-        raise CheckpointError(f"{run_dir} was trained with {same}, this call asks for {new}; choose another run_dir, "
-                              "or pass resume=False to replace it.")
+    fix = "choose another run_dir, or pass resume=False (CLI: --restart) to replace it."
+    for part in ("data", "model", "train"):
+        old, new = dict(saved.get(part, {})), dict(wanted[part])
+        if part == "train":
+            old.pop("epochs", None), new.pop("epochs", None)
+        if old != new:
+            diff = ", ".join(f"{k}={old.get(k)!r} there but {new.get(k)!r} here" for k in sorted(set(old) | set(new))
+                             if old.get(k) != new.get(k) and k != "fingerprint")
+            if part == "data":
+                diff = f"{_describe(saved)} there but {_describe(wanted)} here" + (f" ({diff})" if diff else "")
+            raise CheckpointError(f"{run_dir} holds a run with other {part} settings: {diff}; {fix}")
 
 
 def _opnet_version() -> str:

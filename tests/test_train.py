@@ -78,9 +78,11 @@ def test_resume_gives_the_same_weights_and_history(coll, tmp_path):
     a = torch.load(tmp_path / "a" / "latest.pt", weights_only=True)
     b = torch.load(tmp_path / "b" / "latest.pt", weights_only=True)
     assert all(torch.equal(a["model"][k], b["model"][k]) for k in a["model"])
-    # a finished run is only loaded
+    # a finished run is only loaded; fewer epochs than it has is refused
     again, hist_again = train.fit(coll, epochs=6, run_dir=tmp_path / "b", **FAST)
     assert hist_again == hist_resumed
+    with pytest.raises(train.CheckpointError, match="already trained 6 epochs, more than epochs=4"):
+        train.fit(coll, epochs=4, run_dir=tmp_path / "b", **FAST)
 
 
 _KILLED_RUN = """
@@ -105,20 +107,24 @@ def test_a_run_killed_with_sigkill_resumes_to_the_uninterrupted_result(coll, tmp
     proc.wait()
     done = train.read_history(run)
     assert 0 < len(done) < epochs, "the run finished before it could be killed; the test needs a slower run"
+    (run / ".latest.pt.tmp-99999999").write_bytes(b"partial")  # what a kill during a write leaves
     resumed, hist = train.fit(coll, epochs=epochs, run_dir=run, **FAST)
+    assert not list(run.glob(".*.tmp-*"))
     assert _same_history(hist_ref, hist)
     assert all(torch.equal(a, b) for a, b in zip(_weights(ref).values(), _weights(resumed).values()))
 
 
 def test_mismatched_runs_and_checkpoints_are_refused(coll, tmp_path):
     train.fit(coll, epochs=1, run_dir=tmp_path, **FAST)
-    with pytest.raises(train.CheckpointError, match="channels area,conformal,extrinsic.*channels extrinsic"):
+    with pytest.raises(train.CheckpointError, match=r"other model settings: channels=\['area', 'conformal', 'extrinsic'\] there but \['extrinsic'\] here"):
         train.fit(coll, channels="Ext", epochs=2, run_dir=tmp_path, **FAST)
     other = tiny_collection("other", seed=1)
     with pytest.raises(train.CheckpointError, match=r"tiny/tiny/430 seed 0 .*other/tiny/430 seed 1"):
         train.fit(other, epochs=2, run_dir=tmp_path, **FAST)
-    with pytest.raises(train.CheckpointError, match="lr"):
+    with pytest.raises(train.CheckpointError, match="other train settings: lr=0.001 there but 0.5 here"):
         train.fit(coll, epochs=2, run_dir=tmp_path, **dict(FAST, lr=0.5))
+    with pytest.raises(train.CheckpointError, match="hidden=64 there but 32 here.*--restart"):
+        train.fit(coll, epochs=2, run_dir=tmp_path, **dict(FAST, hidden=32))
     with pytest.raises(train.CheckpointError, match="trained on tiny.*but this collection is other"):
         train.load_model(tmp_path, other)
     with pytest.raises(train.CheckpointError, match="channels area,conformal,extrinsic, not area"):
@@ -161,7 +167,7 @@ def test_nan_loss_stops_with_the_epoch_and_last_good_checkpoint(coll, tmp_path, 
         return out * np.nan if calls["n"] > 2 * steps_per_epoch else out
 
     monkeypatch.setattr(train, "rigid_alignment_loss", flaky)
-    with pytest.raises(train.TrainingError, match=r"loss \(nan\) became NaN or infinite in epoch 3; the last good checkpoint is .*latest.pt \(epoch 2\)"):
+    with pytest.raises(train.TrainingError, match=r"training loss became NaN or infinite in epoch 3; the last good checkpoint is .*latest.pt \(epoch 2\)"):
         train.fit(coll, epochs=5, run_dir=tmp_path, **FAST)
     assert train.read_history(tmp_path)[-1]["epoch"] == 2
 
@@ -178,6 +184,10 @@ def test_bad_arguments(coll, tmp_path):
     (tmp_path / "file").write_text("x")
     with pytest.raises(ValueError, match="is a file"):
         train.fit(coll, epochs=1, run_dir=tmp_path / "file", **FAST)
+    broken = tiny_collection("broken")
+    broken.operators[3, 1, 2, 2] = np.nan
+    with pytest.raises(ValueError, match="operators hold NaN or infinite values in 1 train/val shapes .first: shape 3"):
+        train.fit(broken, epochs=1, **FAST)
     assert train.parse_channels("A+E") == ("area", "extrinsic")
     assert train.parse_channels("extrinsic, area") == ("extrinsic", "area")
 
@@ -221,6 +231,10 @@ def test_cli_train_and_evaluate_on_a_saved_collection(coll, tmp_path):
     assert {r["method"] for r in rows} == {"OperatorNet (A+E)", "Nearest neighbour (A+E)", "Base shape"}
     bad = _cli("train", "--collection", "animals", "--run-dir", str(run))
     assert bad.returncode == 2 and "--collection must be" in bad.stderr
+    bad = _cli("train", "--epochs", "0", "--run-dir", str(run))
+    assert bad.returncode == 2 and "expected a positive integer" in bad.stderr
+    bad = _cli("evaluate", "--run-dir", str(tmp_path / "nothing"))
+    assert bad.returncode != 0 and "no checkpoint at" in bad.stderr and "python -m opnet train" in bad.stderr
 
 
 def test_ddp_with_two_processes_matches_one_process(coll, tmp_path):

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._files import remove_stale_tmp
 from ..mesh import Mesh, MeshError
 from ..shape_difference import KINDS, shape_differences
 from ..spectral import Eigenbasis, eigenbasis
@@ -109,18 +110,6 @@ def _tmp_files(stem: Path) -> list[Path]:
     return list(stem.parent.glob(f".{stem.name}.tmp-*"))
 
 
-def _remove_stale_tmp(stem: Path) -> None:
-    """Delete temporary files left by builds whose process no longer runs."""
-    for tmp in _tmp_files(stem):
-        pid = tmp.name.rsplit("-", 1)[-1].split(".")[0]
-        try:
-            os.kill(int(pid), 0)
-        except (ValueError, ProcessLookupError):
-            tmp.unlink(missing_ok=True)
-        except PermissionError:  # alive, someone else's
-            pass
-
-
 def save_collection(coll: Collection, path) -> Path:
     """Write ``coll`` under the path ``path`` (data + manifest, see the module docstring); returns the manifest path."""
     stem = _stem(path)
@@ -135,7 +124,7 @@ def save_collection(coll: Collection, path) -> Path:
     for key, value in arrays.items():
         if value.dtype == object:
             raise TypeError(f"{key} has dtype object, which cannot be stored safely; convert it to str or numbers.")
-    _remove_stale_tmp(stem)
+    remove_stale_tmp(_tmp_files(stem))
     tmp = stem.with_name(f".{stem.name}.tmp-{os.getpid()}.npz")
     tmp_manifest = stem.with_name(f".{stem.name}.tmp-{os.getpid()}.json")
     try:
