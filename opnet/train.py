@@ -5,7 +5,7 @@ A run directory holds four files, each written atomically (temporary file + ``os
 ``config.json``
     what was trained on and how: the collection (name, preset, resolution, seed, generator version and a
     SHA-256 fingerprint of its arrays), the network (:meth:`OperatorNet.config`), the hyper-parameters, and
-    the opnet / torch versions and device.
+    the training-code version (:data:`TRAINING_VERSION`), the opnet / torch versions and the device.
 ``latest.pt``
     the state after the last finished epoch: weights, Adam state, history, best epoch. It is the commit
     point: a run killed at any moment (even by SIGKILL) resumes from it, and a resumed CPU run ends with the
@@ -141,6 +141,9 @@ def _read_checkpoint(path: Path, map_location="cpu") -> dict:
                               "was not written by opnet. Delete it (or the run directory) and train again.") from None
     if not isinstance(ckpt, dict) or ckpt.get("format") != CHECKPOINT_FORMAT:
         raise CheckpointError(f"{path} is not an opnet checkpoint (no '{CHECKPOINT_FORMAT}' header).")
+    if not {"config", "model", "epoch"} <= set(ckpt):
+        raise CheckpointError(f"{path} is an incomplete opnet checkpoint (no {sorted({'config', 'model', 'epoch'} - set(ckpt))}); "
+                              "delete it and train again.")
     if ckpt.get("version") != CHECKPOINT_VERSION:
         raise CheckpointError(f"{path} has checkpoint version {ckpt.get('version')}; this opnet reads "
                               f"{CHECKPOINT_VERSION}. Train it again with this version.")

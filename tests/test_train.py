@@ -144,6 +144,10 @@ def test_corrupt_or_foreign_checkpoints_name_the_file(coll, tmp_path):
     with pytest.raises(train.CheckpointError, match="not an opnet checkpoint"):
         train.load_model(best)
 
+    torch.save({"format": "opnet-checkpoint", "version": 1}, best)
+    with pytest.raises(train.CheckpointError, match="incomplete opnet checkpoint"):
+        train.load_model(best)
+
     class Evil:  # pickled code is refused by weights_only=True
         def __reduce__(self):
             return (os.system, ("echo hacked",))
