@@ -194,7 +194,7 @@ def _run(args) -> int:
     from .reproduce import reproduce
 
     rows = reproduce(args.preset, args.out, device=args.device, ablation=not args.no_ablation,
-                     figures=not args.no_figures, data_root=args.data_root)
+                     figures=not args.no_figures, data_root=args.data_root, progress=True)
     print(_table([r for r in rows if r["table"] == "table1"]))
     print(f"results: {args.out or f'reproduce-{args.preset}'}/results.md")
     return 0

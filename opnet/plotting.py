@@ -187,10 +187,11 @@ def plot_ablation(table, rows, columns, *, title="d_R on test (×10⁻⁴)", ax=
     else:
         fig = ax.figure
     im = ax.imshow(table, cmap="viridis_r", aspect="auto")
+    lo, hi = np.nanmin(table), np.nanmax(table)
     for (i, j), v in np.ndenumerate(table):
-        if np.isfinite(v):
-            ax.text(j, i, f"{v:.3g}", ha="center", va="center", color="white" if v > np.nanmedian(table) else "black",
-                    fontsize=9)
+        if np.isfinite(v):  # white on the dark (high) end of viridis_r, black on the light end
+            dark = hi > lo and (v - lo) / (hi - lo) > 0.55
+            ax.text(j, i, f"{v:.3g}", ha="center", va="center", color="white" if dark else "black", fontsize=9)
     ax.set_xticks(range(len(columns)), columns)
     ax.set_yticks(range(len(rows)), rows)
     ax.set_title(title)

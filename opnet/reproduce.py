@@ -89,6 +89,8 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     figures : also write the figures (PNG) under ``out/figures``.
     budget : training settings; default ``BUDGETS[preset]``.
     data_root : where collections are cached (default ``opnet.data.default_root()``).
+    progress : ``None`` (default): one progress bar over the networks; ``True``: also a bar per network over
+        its epochs (the command line's choice); ``False``: none.
     """
     from .data import load_collection
     from .train import fit, resolve_device
@@ -105,10 +107,18 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     coll = load_collection("humans", preset, root=data_root, progress=progress)
     info = dict(preset=preset)
 
+    from tqdm.auto import tqdm
+
+    runs = tqdm(total=len(TABLE1) + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0), desc="reproduce",
+                unit="network", disable=progress is False)
+
     def train(channels, depth, epochs, tag):
         run_dir = run_path(out, tag, channels, depth)
+        runs.set_postfix_str(run_dir.name)
         net, history = fit(coll, channels=channels, depth=depth, epochs=epochs, batch_size=budget.batch_size,
-                           lr=budget.lr, hidden=budget.hidden, device=device, run_dir=run_dir, progress=progress)
+                           lr=budget.lr, hidden=budget.hidden, device=device, run_dir=run_dir,
+                           progress=progress is True)
+        runs.update(1)
         trained_on = json.loads((run_dir / "config.json").read_text())["device"]  # a reused run may come from elsewhere
         return net, history, dict(epochs=len(history), train_seconds=round(sum(e["seconds"] for e in history), 1),
                                   device=trained_on)
@@ -144,6 +154,7 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
             fig = _ablation_figure(rows)
             fig.savefig(out / "figures" / "ablation.png", dpi=120)
             plt.close(fig)
+    runs.close()
     return rows
 
 
