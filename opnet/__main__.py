@@ -172,9 +172,11 @@ def _run(args) -> int:
 
     if args.command == "evaluate":
         from .evaluate import TEST_SETS, base_shape_method, evaluate, nearest_neighbour_method, operatornet_method
-        from .train import _checkpoint_path, _read_checkpoint, load_model
+        from .train import _checkpoint_path, _model_from_checkpoint, _read_checkpoint, resolve_device
 
-        d = _read_checkpoint(_checkpoint_path(args.run_dir))["config"]["data"]
+        path = _checkpoint_path(args.run_dir)
+        ckpt = _read_checkpoint(path, map_location=resolve_device(args.device))  # read once
+        d = ckpt["config"]["data"]
         if args.collection:
             coll = read_collection(args.collection)
         elif d["preset"] in ("quick", "default", "paper"):
@@ -182,7 +184,7 @@ def _run(args) -> int:
         else:
             _parser().error(f"{args.run_dir} was trained on {d['name']!r}, not a generated collection: pass its "
                             "manifest with --collection PATH.json")
-        net = load_model(args.run_dir, coll, device=args.device)
+        net = _model_from_checkpoint(ckpt, path, coll, device=args.device)
         rows = evaluate(coll, [operatornet_method(net, coll), nearest_neighbour_method(coll, net.channels),
                                base_shape_method(coll)], TEST_SETS)
         print(_table(rows))

@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .evaluate import (TEST_SETS, base_shape_method, evaluate, nearest_neighbour,
-                       nearest_neighbour_method, operatornet_method, test_set_indices)
 from ._files import atomic_write
+from .evaluate import (TEST_SETS, base_shape_method, evaluate, nearest_neighbour_method, operatornet_method,
+                       test_set_indices)
 from .shape_difference import KINDS
 from .train import CHANNEL_SETS
 
@@ -138,7 +138,7 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
                    eval_subset=int(len(coll.eval_subset)))
     _write(out, rows, context, time.perf_counter() - t_start)
     if figures:
-        _figures(out, coll, nets["OperatorNet (Int+Ext)"], {k.split(" ", 1)[1]: h for k, h in histories.items()})
+        _figures(out, coll, methods[0], baselines[0], {k.split(" ", 1)[1]: h for k, h in histories.items()})
 
     if ablation:
         for depth in ABLATION_DEPTHS:
@@ -275,7 +275,8 @@ def _targets(t1: list[dict]) -> list[str]:
     return lines
 
 
-def _figures(out: Path, coll, net, histories: dict) -> None:
+def _figures(out: Path, coll, ours, nn, histories: dict) -> None:
+    """Training curves, and reconstructions by ``ours`` and ``nn`` (:class:`Method`) coloured by error."""
     import matplotlib.pyplot as plt
 
     from .plotting import headless, plot_history, plot_reconstructions
@@ -286,15 +287,13 @@ def _figures(out: Path, coll, net, histories: dict) -> None:
     fig.savefig(fig_dir / "training_curves.png", dpi=120)
     plt.close(fig)
     headless()
-    ours = operatornet_method(net, coll)
     for split in ("test", "test_subjects"):
         idx = test_set_indices(coll, split)
         if len(idx) == 0:
             continue
         pick = idx[np.linspace(0, len(idx) - 1, min(3, len(idx))).round().astype(int)]
-        nn = coll.vertices[nearest_neighbour(coll, pick, KINDS)]
-        plotter = plot_reconstructions(coll.vertices[pick], {"OperatorNet (Int+Ext)": ours.reconstruct(pick),
-                                                             "NN": nn}, coll.faces,
+        plotter = plot_reconstructions(coll.vertices[pick], {ours.name: ours.reconstruct(pick),
+                                                             "NN": nn.reconstruct(pick)}, coll.faces,
                                        titles=[str(coll.subcollection[i]) for i in pick])
         plotter.screenshot(str(fig_dir / f"reconstructions_{split}.png"))
         plotter.close()

@@ -168,7 +168,12 @@ def load_model(path, collection=None, *, channels=None, device="cpu") -> Operato
     returned in eval mode on ``device``.
     """
     path = _checkpoint_path(path)
-    ckpt = _read_checkpoint(path, map_location=resolve_device(device))
+    return _model_from_checkpoint(_read_checkpoint(path, map_location=resolve_device(device)), path, collection,
+                                 channels=channels, device=device)
+
+
+def _model_from_checkpoint(ckpt: dict, path, collection=None, *, channels=None, device="cpu") -> OperatorNet:
+    """:func:`load_model` on a checkpoint already read (``path`` names it in errors)."""
     config = ckpt["config"]
     if channels is not None and tuple(parse_channels(channels)) != tuple(config["model"]["channels"]):
         raise CheckpointError(f"{path} was trained on channels {','.join(config['model']['channels'])}, not "

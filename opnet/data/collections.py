@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import remove_stale_tmp
+from .._files import remove_stale_tmp, tmp_name
 from ..mesh import Mesh, MeshError
 from ..shape_difference import KINDS, shape_differences
 from ..spectral import Eigenbasis, eigenbasis
@@ -125,8 +125,7 @@ def save_collection(coll: Collection, path) -> Path:
         if value.dtype == object:
             raise TypeError(f"{key} has dtype object, which cannot be stored safely; convert it to str or numbers.")
     remove_stale_tmp(_tmp_files(stem))
-    tmp = stem.with_name(f".{stem.name}.tmp-{os.getpid()}.npz")
-    tmp_manifest = stem.with_name(f".{stem.name}.tmp-{os.getpid()}.json")
+    tmp, tmp_manifest = tmp_name(stem, ".npz"), tmp_name(stem, ".json")
     try:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
