@@ -14,8 +14,11 @@ Public API::
     net, history = opnet.train.fit(collection, channels=KINDS, depth=1, epochs=50, run_dir="runs/x")
     rows  = opnet.evaluate.evaluate(collection, [opnet.evaluate.operatornet_method(net, collection)])
     rows  = opnet.reproduce.reproduce("quick", "reproduce-quick")   # Table 1 + ablation -> results.json/md
+    X     = opnet.reconstruct(operators, base_basis, init="base" | vertices)  # operator matching (refinement)
+    Dt    = opnet.torch_ops.ShapeDifferences(base_basis)(X_tensor)            # differentiable in X (torch)
 
-The modules ``train``, ``evaluate``, ``reproduce`` and ``model`` import torch, so they load on first use.
+The modules ``train``, ``evaluate``, ``reproduce``, ``model``, ``torch_ops`` and ``geometric`` (home of
+``reconstruct``) import torch, so they load on first use.
 """
 from . import data
 from .algebra import analogy, interpolate, log_difference, relative_difference
@@ -47,10 +50,11 @@ __all__ = [
     "gram_matrix", "recover_embedding",
     "interpolate", "analogy", "relative_difference", "log_difference",
     "kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume",
-    "OperatorNet", "rigid_alignment_loss", "model", "train", "evaluate", "reproduce",
+    "OperatorNet", "rigid_alignment_loss", "reconstruct", "model", "train", "evaluate", "reproduce", "torch_ops",
+    "geometric",
 ]
 
-_TORCH_MODULES = ("model", "train", "evaluate", "reproduce")
+_TORCH_MODULES = ("model", "train", "evaluate", "reproduce", "torch_ops", "geometric")
 
 
 def __getattr__(name):  # import torch only when the network is asked for
@@ -58,6 +62,8 @@ def __getattr__(name):  # import torch only when the network is asked for
 
     if name in ("OperatorNet", "rigid_alignment_loss"):
         return getattr(importlib.import_module(".model", __name__), name)
+    if name == "reconstruct":
+        return importlib.import_module(".geometric", __name__).reconstruct
     if name in _TORCH_MODULES:
         return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module 'opnet' has no attribute {name!r}")

@@ -1,0 +1,269 @@
+"""Shapes from operators by optimisation: the geometric baseline and the refinement of a decoded shape.
+
+:func:`reconstruct` moves the vertices ``X`` ``(B, n, 3)`` of shapes on the base's triangulation until their
+differentiable shape differences (:class:`opnet.torch_ops.ShapeDifferences`) match the given operators. It
+minimises, per shape,
+
+``Σ_c ‖D_c(X) − D*_c‖²_F / ‖D*_c − D_c(X_0)‖²_F  +  smoothness · E(X − X_init) / area_0``
+
+over the channels ``c``: the first term is the **relative operator mismatch** (1 at the base shape
+``X_0``, 0 when the operators match); the second is the Dirichlet energy of the displacement from the
+starting shape, ``E(d) = Σ_edges w_ij ‖d_i − d_j‖²`` with the base's cotan weights, divided by the base's
+area so that it has no unit. It keeps the displacement smooth where the truncated operators cannot see it.
+
+- ``init="base"``: start from the base shape — the purely geometric reconstruction the paper compares
+  against (its SfL / FuncChar rows);
+- ``init=vertices``: start from a decoded shape, e.g. OperatorNet's output — OperatorNet + refinement.
+
+Shapes are optimised independently (in batches); each keeps the iterate with its lowest objective, so a
+step that diverges (a triangle collapsing, NaN) never reaches the result.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import torch
+from tqdm.auto import tqdm
+
+from .shape_difference import KINDS
+from .spectral import Eigenbasis, cotan_edge_weights
+from .mesh import degenerate_faces, unique_edges
+from .torch_ops import ShapeDifferences
+
+__all__ = ["reconstruct", "operator_mismatch", "OPTIMIZERS"]
+
+OPTIMIZERS = ("lbfgs", "adam")
+
+
+def _as_operators(operators, channels, k) -> torch.Tensor:
+    try:
+        arr = np.asarray(operators.detach().cpu() if isinstance(operators, torch.Tensor) else operators)
+    except Exception as exc:
+        raise TypeError(f"operators must be an array (B, {len(channels)}, {k}, {k}); got {type(operators).__name__} "
+                        f"({exc}).") from None
+    if arr.dtype.kind not in "fiu":
+        raise TypeError(f"operators must hold real numbers, got {arr.dtype}.")
+    if arr.ndim == 3:
+        arr = arr[None]
+    if arr.ndim != 4 or arr.shape[1:] != (len(channels), k, k):
+        raise ValueError(f"operators must have shape (B, {len(channels)}, {k}, {k}) — one {k} × {k} matrix per channel "
+                         f"{channels} of a {k}-function base basis — got {arr.shape}. Pass channels= to match the "
+                         "operators, and the base basis they were computed with.")
+    if len(arr) == 0:
+        raise ValueError("operators is an empty batch (B = 0); pass at least one shape.")
+    if not np.isfinite(arr).all():
+        raise ValueError("operators contain NaN or infinite values.")
+    return torch.as_tensor(arr, dtype=torch.float64)
+
+
+def _as_init(init, base_basis: Eigenbasis, batch: int) -> torch.Tensor:
+    base = base_basis.mesh.vertices
+    if isinstance(init, str):
+        if init != "base":
+            raise ValueError(f"init must be 'base' or vertices (B, {len(base)}, 3), got {init!r}.")
+        return torch.as_tensor(np.broadcast_to(base, (batch, *base.shape)).copy())
+    arr = np.asarray(init.detach().cpu() if isinstance(init, torch.Tensor) else init)
+    if arr.dtype.kind not in "fiu":
+        raise TypeError(f"init must be 'base' or real vertices (B, {len(base)}, 3), got {arr.dtype} values.")
+    if arr.ndim == 2:
+        arr = np.broadcast_to(arr, (batch, *arr.shape))
+    if arr.shape != (batch, *base.shape):
+        raise ValueError(f"init must have shape ({batch}, {len(base)}, 3) — one shape per operator set, on the base's "
+                         f"{len(base)} vertices — got {arr.shape}.")
+    if not np.isfinite(arr).all():
+        raise ValueError("init contains NaN or infinite coordinates.")
+    bad = degenerate_faces(arr, base_basis.mesh.faces)
+    if bad.any():
+        shape, face = np.argwhere(bad)[0]
+        raise ValueError(f"init has zero-area faces in {int(bad.any(-1).sum())} shapes (first: shape {shape}, face {face}); "
+                         "the cotan weights are undefined there. Start from 'base' or repair those shapes.")
+    return torch.as_tensor(arr, dtype=torch.float64).clone()
+
+
+def operator_mismatch(module: ShapeDifferences, X: torch.Tensor, target: torch.Tensor,
+                      scale: torch.Tensor) -> torch.Tensor:
+    """Relative operator mismatch ``(B,)``: ``Σ_c ‖D_c(X) − D*_c‖²_F / scale_c`` for ``target`` ``(B, C, k, k)``."""
+    return (((module(X) - target) ** 2).sum((-1, -2)) / scale).sum(-1)
+
+
+def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KINDS, steps: int = 100,
+                optimizer: str = "lbfgs", lr: float | None = None, smoothness: float = 1e-3, batch_size: int = 64,
+                device="cpu", callback=None, progress: bool | None = None) -> np.ndarray:
+    """Vertices ``(B, n, 3)`` float64 whose shape differences match ``operators``, on the base's triangulation.
+
+    Parameters
+    ----------
+    operators : array ``(B, C, k, k)`` (or ``(C, k, k)``)
+        Shape differences of the channels ``channels`` against ``base_basis`` (e.g. ``collection.operators``).
+    base_basis : opnet.Eigenbasis
+        The base eigenbasis the operators were computed with (``k`` functions); its faces are the result's.
+    init : ``"base"`` or vertices ``(B, n, 3)`` / ``(n, 3)``
+        The starting shape (see the module docstring): the base (geometric baseline) or a decoded shape.
+    channels : the kinds of the operators' channels, in their order.
+    steps : optimiser iterations (L-BFGS iterations, each with its line search; or Adam steps).
+    optimizer : ``"lbfgs"`` (default; strong-Wolfe line search) or ``"adam"``.
+    lr : step size (default 1 for L-BFGS, 1e-3 m for Adam).
+    smoothness : weight of the displacement's Dirichlet energy (0 disables it).
+    batch_size : shapes optimised together (each has its own objective; the batch shares the iterations).
+    device : where to compute (``"cpu"``, ``"cuda"``); float64 throughout.
+    callback : called as ``callback(step, X, mismatch)`` after every step, with ``step`` from 0 (the start),
+        ``X`` ``(b, n, 3)`` the current vertices of the batch and ``mismatch`` ``(b,)`` their relative operator
+        mismatch (tensors, detached); e.g. to record curves. Batches come one after the other.
+    progress : show a progress bar over the steps of all batches (default: on).
+
+    Returns
+    -------
+    (B, n, 3) float64 array: per shape, the iterate with the lowest objective (never NaN).
+
+    Warns
+    -----
+    RuntimeWarning : a step made the objective NaN or infinite (for example a triangle collapsed); those shapes
+        keep their best iterate and the optimiser restarts from it; after three such steps the batch stops.
+    """
+    if not isinstance(base_basis, Eigenbasis):
+        raise TypeError(f"base_basis must be an opnet.Eigenbasis, got {type(base_basis).__name__}.")
+    from .train import parse_channels
+
+    channels = parse_channels(channels)
+    target = _as_operators(operators, channels, base_basis.k)
+    X_init = _as_init(init, base_basis, len(target))
+    if optimizer not in OPTIMIZERS:
+        raise ValueError(f"optimizer must be one of {OPTIMIZERS}, got {optimizer!r}.")
+    for name, value, positive in (("steps", steps, False), ("batch_size", batch_size, True)):
+        if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < int(positive):
+            raise ValueError(f"{name} must be a {'positive' if positive else 'non-negative'} integer, got {value!r}.")
+    if not (isinstance(smoothness, (int, float)) and np.isfinite(smoothness) and smoothness >= 0):
+        raise ValueError(f"smoothness must be a finite number >= 0, got {smoothness!r}.")
+    lr = (1.0 if optimizer == "lbfgs" else 1e-3) if lr is None else lr
+    if not (isinstance(lr, (int, float)) and np.isfinite(lr) and lr > 0):
+        raise ValueError(f"lr must be a positive number, got {lr!r}.")
+
+    device = torch.device(device)
+    module = ShapeDifferences(base_basis, channels, device=device)
+    base = torch.tensor(base_basis.mesh.vertices, device=device)[None]
+    faces = base_basis.mesh.faces
+    edges = torch.as_tensor(unique_edges(faces), device=device)
+    w = torch.as_tensor(cotan_edge_weights(base_basis.mesh.vertices, faces) / base_basis.mesh.area, device=device)
+    with torch.no_grad():
+        at_base = module(base)
+    out = np.empty(tuple(X_init.shape))
+    bar = tqdm(total=steps * -(-len(target) // batch_size), desc=f"reconstruct ({optimizer})", unit="step",
+               disable=progress is False)
+    for s in range(0, len(target), batch_size):
+        D = target[s:s + batch_size].to(device)
+        scale = ((D - at_base) ** 2).sum((-1, -2)).clamp_min(1e-12 * base_basis.k)
+        start = X_init[s:s + batch_size].to(device)
+
+        def objective(X):
+            d = X - start
+            smooth = (w * ((d[:, edges[:, 0]] - d[:, edges[:, 1]]) ** 2).sum(-1)).sum(-1)
+            mismatch = operator_mismatch(module, X, D, scale)
+            return mismatch + smoothness * smooth, mismatch
+
+        minimise = _lbfgs if optimizer == "lbfgs" else _adam
+        out[s:s + batch_size] = minimise(objective, start, steps, lr, callback, bar).cpu().numpy()
+    bar.close()
+    return out
+
+
+def _value_and_grad(objective, X: torch.Tensor):
+    """Per-shape objective ``(b,)``, mismatch ``(b,)`` and gradient ``(b, n, 3)`` (shapes are independent)."""
+    X = X.detach().requires_grad_(True)
+    with torch.enable_grad():
+        f, mismatch = objective(X)
+        finite = torch.isfinite(f)
+        (grad,) = torch.autograd.grad(torch.where(finite, f, torch.zeros_like(f)).sum(), X)
+    f = torch.where(finite, f, torch.full_like(f, float("inf")))
+    return f.detach(), mismatch.detach(), torch.where(finite[:, None, None], grad, torch.zeros_like(grad))
+
+
+def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    return (a * b).sum((-1, -2))
+
+
+def _lbfgs(objective, start: torch.Tensor, steps: int, lr: float, callback, bar, memory: int = 10) -> torch.Tensor:
+    """Batched L-BFGS: one independent two-loop recursion and Armijo backtracking per shape.
+
+    ``torch.optim.LBFGS`` treats a batch as one problem (one line search, curvature pairs mixing shapes),
+    which stalls the shapes that converge slower; here each shape has its own history and step length.
+    The first step moves the vertex with the largest gradient by ``lr`` % of the start's bounding-box
+    diagonal. A trial step is accepted only where the objective is finite and decreases enough, so the
+    iterates never diverge.
+    """
+    X = start.clone()
+    f, mismatch, g = _value_and_grad(objective, X)
+    diag = (start.amax(1) - start.amin(1)).norm(dim=-1)  # (b,)
+    diag = torch.where(diag > 0, diag, torch.ones_like(diag))
+    pairs: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]] = []
+    if callback is not None:
+        callback(0, X.clone(), mismatch)
+    for step in range(1, steps + 1):
+        q, alphas = g.clone(), []
+        for s, y, rho in reversed(pairs):
+            a = rho * _dot(s, q)
+            q -= a[:, None, None] * y
+            alphas.append(a)
+        if pairs:
+            s, y, rho = pairs[-1]
+            yy = _dot(y, y)
+            gamma = torch.where(rho > 0, _dot(s, y) / yy.clamp_min(1e-300), 0.01 * lr * diag / g.abs().amax((-1, -2)))
+        else:
+            gamma = 0.01 * lr * diag / g.abs().amax((-1, -2)).clamp_min(1e-300)
+        r = gamma[:, None, None] * q
+        for (s, y, rho), a in zip(pairs, reversed(alphas)):
+            r += s * (a - rho * _dot(y, r))[:, None, None]
+        d = -r
+        slope = _dot(g, d)
+        reset = ~(slope < 0)  # not a descent direction: fall back to steepest descent
+        if reset.any():
+            d[reset] = -(gamma[reset, None, None] * g[reset])
+            slope = _dot(g, d)
+        t = torch.ones_like(f)
+        pending = slope < 0
+        X_new, f_new, m_new, g_new = X.clone(), f.clone(), mismatch.clone(), g.clone()
+        for _ in range(30):  # backtracking, per shape
+            trial = X + t[:, None, None] * d
+            ft, mt, gt = _value_and_grad(objective, trial)
+            accept = pending & (ft <= f + 1e-4 * t * slope)
+            X_new[accept], f_new[accept], m_new[accept], g_new[accept] = trial[accept], ft[accept], mt[accept], gt[accept]
+            pending &= ~accept
+            if not pending.any():
+                break
+            t = torch.where(pending, 0.5 * t, t)
+        s_k, y_k = X_new - X, g_new - g
+        sy = _dot(s_k, y_k)
+        rho = torch.where(sy > 1e-12 * _dot(s_k, s_k).sqrt() * _dot(y_k, y_k).sqrt(), 1.0 / sy, torch.zeros_like(sy))
+        rho[reset] = 0.0
+        pairs = (pairs + [(s_k, y_k, rho)])[-memory:]
+        X, f, mismatch, g = X_new, f_new, m_new, g_new
+        if callback is not None:
+            callback(step, X.clone(), mismatch)
+        bar.update(1)
+    return X
+
+
+def _adam(objective, start: torch.Tensor, steps: int, lr: float, callback, bar) -> torch.Tensor:
+    """Adam on the vertices (``lr`` in length units per step); keeps each shape's best finite iterate."""
+    X = torch.nn.Parameter(start.clone())
+    opt = torch.optim.Adam([X], lr=lr)
+    best_X, best_f = start.clone(), None
+    for step in range(steps + 1):
+        f, mismatch, g = _value_and_grad(objective, X)
+        ok = torch.isfinite(f)
+        better = ok & (f < best_f) if best_f is not None else ok
+        best_f = f if best_f is None else torch.where(better, f, best_f)
+        best_X[better] = X.detach()[better]
+        if callback is not None:
+            callback(step, X.detach().clone(), mismatch)
+        if step == steps:
+            break
+        if not ok.all():
+            warnings.warn(f"step {step}: the objective of {int((~ok).sum())} shapes became NaN or infinite (a triangle "
+                          "collapsed?); they restart from their best iterate. Lower lr.", RuntimeWarning, stacklevel=4)
+            with torch.no_grad():
+                X.copy_(torch.where(ok[:, None, None], X, best_X))
+        X.grad = g
+        opt.step()
+        bar.update(1)
+    return best_X

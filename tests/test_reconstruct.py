@@ -1,0 +1,106 @@
+"""Reconstruction by operator matching (opnet.reconstruct): the geometric baseline and refinement."""
+import numpy as np
+import pytest
+import torch
+
+import opnet
+from opnet.data import toy
+from tqdm.auto import tqdm
+
+from opnet.geometric import _adam, _lbfgs, reconstruct
+
+
+@pytest.fixture(scope="module")
+def problem(base_basis, targets):
+    X = np.stack([t.vertices for t in targets[:2]])  # bend, bulge
+    return X, opnet.shape_differences(base_basis, X)
+
+
+def test_geometric_baseline_recovers_toy_shapes(base_basis, problem):
+    X, ops = problem
+    curves = []
+    R = reconstruct(ops, base_basis, steps=60, smoothness=0.0, progress=False,
+                    callback=lambda step, Xs, m: curves.append(m.numpy()))
+    assert R.shape == X.shape and R.dtype == np.float64 and np.isfinite(R).all()
+    before = opnet.d_R(X, np.broadcast_to(base_basis.mesh.vertices, X.shape))
+    after = opnet.d_R(X, R)
+    # the bulge (an area change) is recovered almost exactly; the bend (nearly isometric) is harder
+    assert after[1] < before[1] / 100 and after[0] < before[0] / 2, (before, after)
+    assert np.allclose(curves[0], 3.0)  # relative mismatch: 1 per channel at the base
+    assert np.all(curves[-1] < 0.1 * curves[0])
+    assert np.all(np.diff(np.stack(curves), axis=0) <= 1e-9 + 1e-6 * np.stack(curves)[:-1])  # monotone (Armijo)
+
+
+def test_shapes_are_independent_in_a_batch(base_basis, problem):
+    X, ops = problem
+    together = reconstruct(ops, base_basis, steps=15, progress=False)
+    alone = np.concatenate([reconstruct(ops[i:i + 1], base_basis, steps=15, progress=False) for i in range(2)])
+    assert np.allclose(together, alone, atol=1e-9)
+
+
+def test_ground_truth_is_a_fixed_point_and_refinement_helps(base_basis, problem):
+    X, ops = problem
+    assert np.allclose(reconstruct(ops, base_basis, init=X, steps=5, progress=False), X, atol=1e-9)
+    rng = np.random.default_rng(1)
+    noisy = X + 0.01 * toy.bulge(X[0], 0.5)[None] * rng.standard_normal((1, 1, 3))
+    refined = reconstruct(ops, base_basis, init=noisy, steps=40, smoothness=0.0, progress=False)
+    assert np.all(opnet.d_R(X, refined) < opnet.d_R(X, noisy))
+
+
+@pytest.mark.parametrize("minimise", [_adam, _lbfgs])
+def test_a_diverging_step_never_reaches_the_result(minimise):
+    """An objective that is NaN past a wall (like a collapsing triangle): the result is the best finite iterate."""
+    def objective(X):
+        f = ((X - 3.0) ** 2).sum((-1, -2))
+        f = torch.where(X[:, 0, 0] > 1.0, torch.full_like(f, float("nan")), f)
+        return f, f
+
+    start = torch.zeros(2, 4, 3, dtype=torch.float64)
+    bar = tqdm(disable=True)
+    if minimise is _adam:
+        with pytest.warns(RuntimeWarning, match="NaN or infinite"):
+            X = minimise(objective, start, 20, 0.7, None, bar)
+    else:
+        X = minimise(objective, start, 20, 1.0, None, bar)
+    assert torch.isfinite(X).all() and (X[:, 0, 0] <= 1.0).all()
+    assert (objective(X)[0] < objective(start)[0]).all()
+
+
+def test_adam_lowers_the_error(base_basis, problem):
+    X, ops = problem
+    R = reconstruct(ops, base_basis, steps=30, optimizer="adam", lr=1e-2, smoothness=0.0, progress=False)
+    assert np.all(opnet.d_R(X, R) < opnet.d_R(X, np.broadcast_to(base_basis.mesh.vertices, X.shape)))
+
+
+def test_bad_input(base_basis, problem, small_shapes):
+    X, ops = problem
+    with pytest.raises(ValueError, match=r"\(B, 2, 30, 30\)"):
+        reconstruct(ops, base_basis, channels="area,extrinsic", progress=False)
+    with pytest.raises(ValueError, match="base basis they were computed with"):
+        reconstruct(ops, base_basis.truncate(20), progress=False)
+    other = opnet.eigenbasis(small_shapes[0], 30)  # a basis of another mesh
+    with pytest.raises(ValueError, match="init must have shape"):
+        reconstruct(ops, other, init=X, progress=False)
+    bad = ops.copy()
+    bad[0, 0, 0, 0] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        reconstruct(bad, base_basis, progress=False)
+    with pytest.raises(ValueError, match="empty"):
+        reconstruct(ops[:0], base_basis, progress=False)
+    with pytest.raises(ValueError, match="optimizer"):
+        reconstruct(ops, base_basis, optimizer="sgd", progress=False)
+    with pytest.raises(ValueError, match="init must be 'base'"):
+        reconstruct(ops, base_basis, init="zeros", progress=False)
+    with pytest.raises(ValueError, match="zero-area faces"):
+        reconstruct(ops, base_basis, init=np.zeros_like(X), progress=False)
+    with pytest.raises(ValueError, match="smoothness"):
+        reconstruct(ops, base_basis, smoothness=-1, progress=False)
+    # torch tensors are accepted as well as arrays
+    R = reconstruct(torch.tensor(ops[:1]), base_basis, steps=2, progress=False)
+    assert R.shape == (1, *X.shape[1:])
+
+
+def test_public_name():
+    import opnet.geometric
+
+    assert opnet.reconstruct is opnet.geometric.reconstruct
