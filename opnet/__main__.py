@@ -46,6 +46,11 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--hidden", type=_positive, default=1024, help="width of the two hidden dense layers (1024)")
     t.add_argument("--no-subtract-identity", action="store_true",
                    help="feed the network D instead of D - I (the default subtracts the identity)")
+    t.add_argument("--variant", default="paper", choices=["paper", "ours"],
+                   help="paper: the paper's network; ours: standardised inputs, a displacement from the base and a "
+                        "one-cycle learning rate (README, 'our variant')")
+    t.add_argument("--schedule", default=None, choices=["constant", "onecycle"],
+                   help="learning rate over the run (default: constant for paper, onecycle for ours)")
     t.add_argument("--device", default="auto", help="auto (CUDA if present), cpu, cuda, cuda:N")
     t.add_argument("--run-dir", required=True, help="folder for config.json, latest.pt, best.pt, history.json")
     t.add_argument("--restart", action="store_true", help="replace the run in --run-dir instead of resuming it")
@@ -159,7 +164,8 @@ def _run(args) -> int:
             _, history = fit(coll, channels=channels, depth=args.depth, epochs=args.epochs,
                              batch_size=args.batch_size, lr=args.lr, seed=args.seed, device=args.device,
                              run_dir=args.run_dir, resume=not args.restart, hidden=args.hidden,
-                             subtract_identity=not args.no_subtract_identity)
+                             subtract_identity=not args.no_subtract_identity, variant=args.variant,
+                             schedule=args.schedule)
         finally:
             if distributed:
                 import torch

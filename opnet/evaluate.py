@@ -6,7 +6,9 @@ reconstructed vertices. Three kinds are provided:
 - :func:`operatornet_method`: a trained :class:`opnet.OperatorNet` decoding the shapes' operators;
 - :func:`nearest_neighbour_method`: the training shape whose operators (the same channels, Frobenius
   norm) are nearest (the paper's "NN" row);
-- :func:`base_shape_method`: the base shape itself, whatever the input (the "do nothing" floor).
+- :func:`base_shape_method`: the base shape itself, whatever the input (the "do nothing" floor);
+- :func:`geometric_method`: vertices moved from the base until their operators match (no learning);
+- :func:`refined_method`: another method's output, moved until its operators match the input's.
 
 Test sets (:data:`TEST_SETS`): ``"eval_subset"`` (the paper's protocol: 5 shapes per held-out
 sequence chosen by furthest-point sampling, 50 in all), all of ``"test"`` (10 held-out sequences), and
@@ -18,6 +20,7 @@ medians.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -28,7 +31,8 @@ from .metrics import d_E, d_R, d_V, rigid_align
 from .shape_difference import KINDS
 
 __all__ = ["TEST_SETS", "Method", "test_set_indices", "channel_label", "predict", "operatornet_method",
-           "nearest_neighbour", "nearest_neighbour_method", "base_shape_method", "shape_errors", "vertex_errors",
+           "nearest_neighbour", "nearest_neighbour_method", "base_shape_method", "geometric_method", "refined_method",
+           "shape_errors", "vertex_errors",
            "evaluate"]
 
 TEST_SETS = ("eval_subset", "test", "test_subjects")
@@ -58,13 +62,17 @@ def test_set_indices(collection, test_set: str) -> np.ndarray:
 
 @dataclass
 class Method:
-    """A reconstruction method: ``reconstruct(indices) → (len(indices), n, 3)`` vertices of a collection."""
+    """A reconstruction method: ``reconstruct(indices) → (len(indices), n, 3)`` vertices of a collection.
+
+    ``max_shapes``: evaluate it on at most this many shapes of each test set, evenly spaced (for slow methods).
+    """
 
     name: str
     reconstruct: Callable[[np.ndarray], np.ndarray]
     channels: tuple = ()
     depth: int | None = None
     info: dict = field(default_factory=dict)
+    max_shapes: int | None = None
 
 
 def predict(net, operators, *, batch_size: int = 256) -> np.ndarray:
@@ -132,6 +140,43 @@ def base_shape_method(collection) -> Method:
     return Method("Base shape", lambda idx: np.broadcast_to(base, (len(idx), *base.shape)).copy())
 
 
+def geometric_method(collection, channels=KINDS, *, max_shapes: int | None = None, **options) -> Method:
+    """The geometric baseline: :func:`opnet.reconstruct` from the base shape (the paper's SfL / FuncChar row).
+
+    ``options`` go to :func:`opnet.reconstruct` (``steps``, ``smoothness``, ...).
+    """
+    from .geometric import reconstruct
+
+    channels = tuple(channels)
+    chans = _select(channels)
+
+    def run(idx):
+        return reconstruct(collection.operators[idx][:, chans], collection.base_basis, init="base", channels=channels,
+                           progress=False, **options)
+
+    return Method(f"Geometric ({channel_label(channels)})", run, channels, max_shapes=max_shapes)
+
+
+def refined_method(method: Method, collection, channels=KINDS, *, max_shapes: int | None = None,
+                   **options) -> Method:
+    """``method`` followed by :func:`opnet.reconstruct` from its output: its vertices move until their operators
+    (``channels``) match the input's. ``options`` go to :func:`opnet.reconstruct`. Its rows also hold
+    ``d_R_before``, the mean ``d_R`` of ``method`` on the same shapes."""
+    from .geometric import reconstruct
+
+    channels = tuple(channels)
+    chans = _select(channels)
+
+    def run(idx):
+        init = method.reconstruct(idx)
+        out.info["d_R_before"] = float(np.mean(d_R(collection.vertices[idx], init)))  # on the same shapes
+        return reconstruct(collection.operators[idx][:, chans], collection.base_basis, init=init, channels=channels,
+                           progress=False, **options)
+
+    out = Method(f"{method.name} + refinement", run, channels, method.depth, max_shapes=max_shapes)
+    return out
+
+
 def shape_errors(gt, recon, faces, *, batch_size: int = 256) -> dict:
     """Per-shape ``d_R`` (length²), ``d_V`` and ``d_E`` of reconstructions ``(N, n, 3)`` against ``gt``.
 
@@ -154,8 +199,9 @@ def vertex_errors(gt, recon) -> np.ndarray:
 
 
 def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = None) -> list[dict]:
-    """One row per (method, test set): ``method``, ``channels``, ``depth``, ``split``, ``n_shapes`` and the
-    mean and median of ``d_R`` (length²), ``d_V``, ``d_E`` (keys ``d_R``, ``d_R_median``, ...).
+    """One row per (method, test set): ``method``, ``channels``, ``depth``, ``split``, ``n_shapes``,
+    ``seconds_per_shape`` (the method's wall time over the set, per shape) and the mean and median of ``d_R``
+    (length²), ``d_V``, ``d_E`` (keys ``d_R``, ``d_R_median``, ...).
 
     ``methods``: :class:`Method` objects; ``extra``: fields added to every row (e.g. the preset).
     """
@@ -165,8 +211,14 @@ def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = N
             idx = test_set_indices(collection, ts)
             if len(idx) == 0:
                 continue
-            err = shape_errors(collection.vertices[idx], m.reconstruct(idx), collection.faces)
-            row = dict(method=m.name, channels=",".join(m.channels), depth=m.depth, split=ts, n_shapes=int(len(idx)))
+            if m.max_shapes is not None and len(idx) > m.max_shapes:
+                idx = idx[np.linspace(0, len(idx) - 1, m.max_shapes).round().astype(int)]
+            start = time.perf_counter()
+            recon = m.reconstruct(idx)
+            seconds = (time.perf_counter() - start) / len(idx)
+            err = shape_errors(collection.vertices[idx], recon, collection.faces)
+            row = dict(method=m.name, channels=",".join(m.channels), depth=m.depth, split=ts, n_shapes=int(len(idx)),
+                       seconds_per_shape=seconds)
             for key, values in err.items():
                 row[key] = float(np.mean(values))
                 row[f"{key}_median"] = float(np.median(values))

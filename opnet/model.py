@@ -6,12 +6,16 @@ default, the paper's best in its ablation, Appendix B) and a dense decoder (1024
 """
 from __future__ import annotations
 
+import numpy as np
 import torch
 from torch import nn
 
 from .shape_difference import KINDS
 
-__all__ = ["OperatorNet", "rigid_alignment_loss", "kabsch_torch"]
+__all__ = ["OperatorNet", "rigid_alignment_loss", "kabsch_torch", "VARIANTS"]
+
+#: Named network settings: the paper's architecture (fed ``D − I``), and this project's variant.
+VARIANTS = {"paper": dict(), "ours": dict(standardize=True, residual=True)}
 
 
 class OperatorNet(nn.Module):
@@ -29,10 +33,18 @@ class OperatorNet(nn.Module):
         that varies and a zero input means "the base shape"; it is subtracted inside :meth:`forward`, so the
         network is always called on the operators themselves. Measured on ``val`` (``benchmarks/training.py
         --scaling``, README): over 4 seeds ``D − I`` gave a 10 % lower mean error, within the seed-to-seed spread.
+    standardize : feed ``(D − μ) / σ`` with ``μ``, ``σ`` the per-entry mean and standard deviation of the training
+        operators (buffers ``input_mean``, ``input_std`` ``(C, k, k)``, set by :meth:`set_statistics`; replaces
+        ``subtract_identity``). The entries of ``D − I`` are ~1e-2, so the first layer otherwise sees tiny inputs.
+    residual : decode a displacement from the base shape (buffer ``base`` ``(n, 3)``, set by
+        :meth:`set_statistics`): the output is ``base + decoder(·)``, so an untrained network starts at the base.
+
+    ``standardize=True, residual=True`` is this project's variant (:data:`VARIANTS` ``["ours"]``); the README
+    reports how each part changes the validation error. Both sets of buffers are saved with the weights.
     """
 
     def __init__(self, n_vertices: int, k: int = 60, channels=KINDS, depth: int = 1, hidden: int = 1024,
-                 subtract_identity: bool = True):
+                 subtract_identity: bool = True, standardize: bool = False, residual: bool = False):
         super().__init__()
         channels = tuple(channels)
         if not channels or not set(channels) <= set(KINDS) or len(set(channels)) != len(channels):
@@ -43,6 +55,12 @@ class OperatorNet(nn.Module):
             raise ValueError(f"need n_vertices >= 4 and k >= 1, got {n_vertices} and {k}.")
         self.n_vertices, self.k, self.channels, self.depth = n_vertices, k, channels, depth
         self.hidden, self.subtract_identity = hidden, bool(subtract_identity)
+        self.standardize, self.residual = bool(standardize), bool(residual)
+        if self.standardize:
+            self.register_buffer("input_mean", torch.zeros(len(channels), k, k))
+            self.register_buffer("input_std", torch.ones(len(channels), k, k))
+        if self.residual:
+            self.register_buffer("base", torch.zeros(n_vertices, 3))
         layers, width, size = [], len(channels), k
         for i in range(depth):
             layers += [nn.Conv2d(width, 8 * 2**i, kernel_size=3, stride=2, padding=1), nn.ReLU()]
@@ -59,14 +77,35 @@ class OperatorNet(nn.Module):
         if operators.ndim != 4 or tuple(operators.shape[1:]) != expected:
             raise ValueError(f"OperatorNet expects operators of shape (B, {expected[0]}, {self.k}, {self.k}) for channels "
                              f"{self.channels}, got {tuple(operators.shape)}.")
-        if self.subtract_identity:
+        if self.standardize:
+            operators = (operators - self.input_mean) / self.input_std
+        elif self.subtract_identity:
             operators = operators - torch.eye(self.k, dtype=operators.dtype, device=operators.device)
-        return self.decoder(self.encoder(operators)).view(-1, self.n_vertices, 3)
+        out = self.decoder(self.encoder(operators)).view(-1, self.n_vertices, 3)
+        return out + self.base if self.residual else out
+
+    def set_statistics(self, operators: torch.Tensor, base_vertices=None) -> "OperatorNet":
+        """Set the buffers of ``standardize`` (from training operators ``(N, C, k, k)``) and ``residual`` (the base
+        shape's vertices ``(n, 3)``); :func:`opnet.train.fit` calls it before training. Returns ``self``."""
+        with torch.no_grad():
+            if self.standardize:
+                ops = torch.as_tensor(operators, dtype=torch.float64)
+                self.input_mean.copy_(ops.mean(0))
+                # entries that never vary (e.g. the constant function's row of D^C) get σ = 1
+                std = ops.std(0)
+                self.input_std.copy_(torch.where(std > 1e-8, std, torch.ones_like(std)))
+            if self.residual:
+                if base_vertices is None or tuple(np.shape(base_vertices)) != (self.n_vertices, 3):
+                    raise ValueError(f"residual=True needs the base shape's vertices ({self.n_vertices}, 3), got "
+                                     f"{None if base_vertices is None else np.shape(base_vertices)}.")
+                self.base.copy_(torch.tensor(np.asarray(base_vertices), dtype=self.base.dtype))
+        return self
 
     def config(self) -> dict:
         """The constructor's arguments, enough to rebuild the network (stored in checkpoints)."""
         return dict(n_vertices=self.n_vertices, k=self.k, channels=list(self.channels), depth=self.depth,
-                    hidden=self.hidden, subtract_identity=self.subtract_identity)
+                    hidden=self.hidden, subtract_identity=self.subtract_identity, standardize=self.standardize,
+                    residual=self.residual)
 
 
 def kabsch_torch(X: torch.Tensor, Y: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

@@ -176,6 +176,28 @@ def plot_history(histories: dict, *, ax=None):
     return fig
 
 
+def plot_refinement_curves(curves: dict, *, axes=None):
+    """Operator mismatch and ``d_R`` (×10⁻⁴) against the optimisation step, one line per run.
+
+    ``curves``: name → dict with ``step``, ``mismatch`` and ``d_R`` (equal-length sequences, e.g. the means over
+    the shapes recorded by :func:`opnet.reconstruct`'s ``callback``). Returns the matplotlib figure.
+    """
+    import matplotlib.pyplot as plt
+
+    if axes is None:
+        fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
+    for name, c in curves.items():
+        axes[0].plot(c["step"], c["mismatch"], label=name)
+        axes[1].plot(c["step"], 1e4 * np.asarray(c["d_R"]), label=name)
+    axes[0].set(yscale="log", xlabel="step", ylabel="relative operator mismatch", title="what is minimised")
+    axes[1].set(yscale="log", xlabel="step", ylabel="d_R (×10⁻⁴)", title="what we want")
+    for ax in axes:
+        ax.grid(alpha=0.3, which="both")
+    axes[1].legend(fontsize=8)
+    axes[0].figure.tight_layout()
+    return axes[0].figure
+
+
 def plot_ablation(table, rows, columns, *, title="d_R on test (×10⁻⁴)", ax=None):
     """Heat map of an ablation table ``(len(rows), len(columns))`` with its values written in the cells."""
     import matplotlib.pyplot as plt

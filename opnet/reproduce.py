@@ -25,12 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from ._files import atomic_write
-from .evaluate import (TEST_SETS, base_shape_method, evaluate, nearest_neighbour_method, operatornet_method,
-                       test_set_indices)
+from .evaluate import (TEST_SETS, base_shape_method, evaluate, geometric_method, nearest_neighbour_method,
+                       operatornet_method, refined_method, test_set_indices)
 from .shape_difference import KINDS
 from .train import CHANNEL_SETS
 
-__all__ = ["reproduce", "run_path", "ablation_table", "results_markdown", "Budget", "BUDGETS", "TABLE1", "ABLATION_SETS", "ABLATION_DEPTHS", "PAPER_TABLE1",
+__all__ = ["reproduce", "run_path", "ablation_table", "results_markdown", "refinement_curves", "Budget", "BUDGETS", "TABLE1", "OURS", "REFINE", "ABLATION_SETS", "ABLATION_DEPTHS", "PAPER_TABLE1",
            "PAPER_ABLATION"]
 
 
@@ -43,10 +43,12 @@ class Budget:
     batch_size: int = 32
     lr: float = 1e-3
     hidden: int = 1024
+    refine_steps: int = 100
+    refine_shapes: int = 160
 
 
 BUDGETS = {
-    "quick": Budget(epochs=80, ablation_epochs=6, batch_size=16),
+    "quick": Budget(epochs=80, ablation_epochs=6, batch_size=16, refine_steps=30, refine_shapes=12),
     "default": Budget(epochs=60, ablation_epochs=12),
     "paper": Budget(epochs=100, ablation_epochs=25),
 }
@@ -57,6 +59,11 @@ TABLE1 = {"OperatorNet (Int+Ext)": KINDS, "OperatorNet (Int)": ("area", "conform
 #: The ablation's columns (Appendix B, in the paper's order) and rows.
 ABLATION_SETS = CHANNEL_SETS
 ABLATION_DEPTHS = (1, 2, 3, 4)
+
+#: This project's variant (:data:`opnet.model.VARIANTS` ``["ours"]``), trained like Table 1's networks.
+OURS = {"OperatorNet ours (Int+Ext)": KINDS}
+#: The operator-matching rows (:func:`opnet.reconstruct`): its settings, chosen on ``val`` (README).
+REFINE = dict(optimizer="lbfgs", smoothness=0.1)
 
 #: The paper's Table 1 on DFAUST (d_R ×10⁻⁴, d_V, d_E), for reference beside ours.
 PAPER_TABLE1 = {"OperatorNet (Int+Ext)": (1.11, 0.014, 0.045), "OperatorNet (Int)": (2.41, 0.013, 0.046),
@@ -77,7 +84,8 @@ def _machine(device) -> str:
 
 
 def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool = True, figures: bool = True,
-              budget: Budget | None = None, data_root=None, progress: bool | None = None) -> list[dict]:
+              refine: bool = True, budget: Budget | None = None, data_root=None,
+              progress: bool | None = None) -> list[dict]:
     """Reproduce the paper's Table 1 and ablation on the generated humans at ``preset``; returns the rows.
 
     Parameters
@@ -87,6 +95,9 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     device : ``"auto"`` (CUDA when available), ``"cpu"``, ``"cuda"``.
     ablation : also train and evaluate the depth × channels grid (Appendix B).
     figures : also write the figures (PNG) under ``out/figures``.
+    refine : also evaluate the operator-matching rows: the geometric baseline and OperatorNet + refinement
+        (:func:`opnet.reconstruct`, ``budget.refine_steps`` steps, on at most ``budget.refine_shapes`` shapes of
+        each test set, evenly spaced: they take about a second per shape).
     budget : training settings; default ``BUDGETS[preset]``.
     data_root : where collections are cached (default ``opnet.data.default_root()``).
     progress : ``None`` (default): one progress bar over the networks; ``True``: also a bar per network over
@@ -109,14 +120,14 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
 
     from tqdm.auto import tqdm
 
-    runs = tqdm(total=len(TABLE1) + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0), desc="reproduce",
+    runs = tqdm(total=len(TABLE1) + len(OURS) + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0), desc="reproduce",
                 unit="network", disable=progress is False)
 
-    def train(channels, depth, epochs, tag):
-        run_dir = run_path(out, tag, channels, depth)
+    def train(channels, depth, epochs, tag, variant="paper"):
+        run_dir = run_path(out, tag, channels, depth, variant)
         runs.set_postfix_str(run_dir.name)
         net, history = fit(coll, channels=channels, depth=depth, epochs=epochs, batch_size=budget.batch_size,
-                           lr=budget.lr, hidden=budget.hidden, device=device, run_dir=run_dir,
+                           lr=budget.lr, hidden=budget.hidden, device=device, run_dir=run_dir, variant=variant,
                            progress=progress is True)
         runs.update(1)
         trained_on = json.loads((run_dir / "config.json").read_text())["device"]  # a reused run may come from elsewhere
@@ -126,10 +137,16 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     nets, histories, devices = {}, {}, {}
     for name, channels in TABLE1.items():
         nets[name], histories[name], devices[name] = train(channels, 1, budget.epochs, "table1")
-    methods = [operatornet_method(nets[name], coll, name) for name in TABLE1]
+    for name, channels in OURS.items():
+        nets[name], histories[name], devices[name] = train(channels, 1, budget.epochs, "table1", "ours")
+    methods = [operatornet_method(nets[name], coll, name) for name in (*TABLE1, *OURS)]
     for m in methods:
         m.info = dict(table="table1", **devices[m.name])
     baselines = [nearest_neighbour_method(coll, KINDS), base_shape_method(coll)]
+    if refine:
+        options = dict(REFINE, steps=budget.refine_steps, max_shapes=budget.refine_shapes, device=device)
+        baselines += [geometric_method(coll, KINDS, **options)]
+        baselines += [refined_method(m, coll, KINDS, **options) for m in methods if m.channels == KINDS]
     for m in baselines:
         m.info = dict(table="table1", epochs=None, train_seconds=None, device=str(device))
     rows = evaluate(coll, methods + baselines, TEST_SETS, extra=info)
@@ -139,6 +156,8 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     _write(out, rows, context, time.perf_counter() - t_start)
     if figures:
         _figures(out, coll, methods[0], baselines[0], {k.split(" ", 1)[1]: h for k, h in histories.items()})
+        if refine:
+            _refinement_figures(out, coll, methods[0], budget)
 
     if ablation:
         for depth in ABLATION_DEPTHS:
@@ -158,13 +177,14 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     return rows
 
 
-def run_path(out, table: str, channels, depth: int = 1) -> Path:
+def run_path(out, table: str, channels, depth: int = 1, variant: str = "paper") -> Path:
     """The run directory :func:`reproduce` uses for one network: ``out/runs/<table>-<channels>-d<depth>``.
 
-    ``table`` is ``"table1"`` or ``"ablation"``; ``channels`` a set of kinds (short name ``A+E+C``, ``Ext``...).
+    ``table`` is ``"table1"`` or ``"ablation"``; ``channels`` a set of kinds (short name ``A+E+C``, ``Ext``...);
+    ``variant="ours"`` (:func:`opnet.train.fit`) adds ``-ours``.
     """
     short = next(k for k, v in ABLATION_SETS.items() if set(v) == set(channels))
-    return Path(out) / "runs" / f"{table}-{short}-d{depth}"
+    return Path(out) / "runs" / f"{table}-{short}-d{depth}{'' if variant == 'paper' else '-' + variant}"
 
 
 def ablation_table(rows) -> np.ndarray:
@@ -211,18 +231,29 @@ def results_markdown(rows: list[dict], context: dict) -> str:
     methods = list(dict.fromkeys(r["method"] for r in t1))
     splits = [s for s in TEST_SETS if any(r["split"] == s for r in t1)]
     head = "| method | " + " | ".join(f"{_SPLIT_NAMES[s]}: d_R | d_V | d_E" for s in splits) + \
-        " | paper d_R | d_V | d_E | train s |"
-    lines += [head, "|---" * (2 + 3 * len(splits) + 3) + "|"]
+        " | paper d_R | d_V | d_E | train s | s/shape |"
+    lines += [head, "|---" * (2 + 3 * len(splits) + 4) + "|"]
+    subsampled = {}
     for m in methods:
         cells = []
         for s in splits:
             r = next((r for r in t1 if r["method"] == m and r["split"] == s), None)
             cells += [f"{_fmt(r['d_R'], 1e4)} ({_fmt(r['d_R_median'], 1e4)})", _fmt(r["d_V"]), _fmt(r["d_E"])] \
                 if r else ["–"] * 3
+            full = next((q["n_shapes"] for q in t1 if q["split"] == s and q["method"] == methods[0]), None)
+            if r and full is not None and r["n_shapes"] < full:
+                subsampled.setdefault(m, []).append(f"{r['n_shapes']} of the {full} shapes of {_SPLIT_NAMES[s]}")
         paper = PAPER_TABLE1.get(m, (None, None, None))
-        secs = next(r["train_seconds"] for r in t1 if r["method"] == m)
+        mine = [r for r in t1 if r["method"] == m]
+        secs = mine[0]["train_seconds"]
+        per_shape = np.mean([r["seconds_per_shape"] for r in mine if "seconds_per_shape" in r] or [np.nan])
         lines.append(f"| {m} | " + " | ".join(cells) + " | " + " | ".join("–" if p is None else f"{p:g}" for p in paper)
-                     + f" | {'–' if secs is None else f'{secs:.0f}'} |")
+                     + f" | {'–' if secs is None else f'{secs:.0f}'} | {_fmt(per_shape, digits=2)} |")
+    lines += ["", "s/shape: the method's wall time per reconstructed shape (decoding, search or optimisation; not "
+              "training)."]
+    for m, where in subsampled.items():
+        lines.append(f"{m}: evaluated on {', '.join(where)} (evenly spaced; the optimisation takes about a second "
+                     "per shape).")
     lines += ["", "## Targets", ""] + _targets(t1)
     table = ablation_table(rows)
     if np.isfinite(table).any():
@@ -253,7 +284,7 @@ def results_markdown(rows: list[dict], context: dict) -> str:
 
 def _targets(t1: list[dict]) -> list[str]:
     def get(method, split, key="d_R"):
-        return next((r[key] for r in t1 if r["method"] == method and r["split"] == split), None)
+        return next((r.get(key) for r in t1 if r["method"] == method and r["split"] == split), None)
 
     lines = []
     for split in ("test", "test_subjects", "eval_subset"):
@@ -267,6 +298,15 @@ def _targets(t1: list[dict]) -> list[str]:
     if dv is not None:
         lines.append(f"- test: d_V {_fmt(dv)} (target ≤ 0.014: {'met' if dv <= 0.014 else 'missed'}), "
                      f"d_E {_fmt(de)} (target ≤ 0.045: {'met' if de <= 0.045 else 'missed'}).")
+    paper, ours = get("OperatorNet (Int+Ext)", "test"), get(next(iter(OURS)), "test")
+    if paper is not None and ours is not None:
+        lines.append(f"- test: OperatorNet (Int+Ext)'s d_R / ours = {paper / ours:.2f} ({_fmt(paper, 1e4)} vs "
+                     f"{_fmt(ours, 1e4)} ×10⁻⁴; target ≥ 1.5 at `default`): {'met' if paper / ours >= 1.5 else 'missed'}.")
+    for name in ("OperatorNet (Int+Ext)", next(iter(OURS))):
+        refined, before = get(f"{name} + refinement", "test"), get(f"{name} + refinement", "test", "d_R_before")
+        if refined is not None and before is not None:
+            lines.append(f"- test: refinement changes {name}'s d_R by {100 * (refined / before - 1):+.0f} % "
+                         f"({_fmt(before, 1e4)} → {_fmt(refined, 1e4)} ×10⁻⁴ on the same shapes).")
     order = [get(f"OperatorNet ({c})", "test") for c in ("Int+Ext", "Ext", "Int")]
     if None not in order:
         holds = order[0] < order[1] < order[2]
@@ -297,3 +337,53 @@ def _figures(out: Path, coll, ours, nn, histories: dict) -> None:
                                        titles=[str(coll.subcollection[i]) for i in pick])
         plotter.screenshot(str(fig_dir / f"reconstructions_{split}.png"))
         plotter.close()
+
+
+def refinement_curves(coll, idx, inits: dict, steps: int, snapshot_steps=()) -> tuple[dict, dict]:
+    """Run :func:`opnet.reconstruct` (settings :data:`REFINE`) on shapes ``idx`` from each start in ``inits``
+    (name → ``"base"`` or vertices ``(len(idx), n, 3)``), recording after every step the mean relative operator
+    mismatch and the mean ``d_R``. Returns ``curves`` (name → ``step``, ``mismatch``, ``d_R`` lists, for
+    :func:`opnet.plotting.plot_refinement_curves`) and ``snapshots`` (name → step → vertices of the first shape)."""
+    from .geometric import reconstruct
+    from .metrics import d_R
+
+    gt = coll.vertices[idx].astype(np.float64)
+    curves, snapshots = {}, {}
+    for name, init in inits.items():
+        c, snap = dict(step=[], mismatch=[], d_R=[]), {}
+
+        def record(step, X, mismatch, c=c, snap=snap):
+            c["step"].append(step)
+            c["mismatch"].append(float(mismatch.mean()))
+            c["d_R"].append(float(d_R(gt, X.cpu().numpy()).mean()))
+            if step in snapshot_steps:
+                snap[step] = X[0].cpu().numpy()
+
+        reconstruct(coll.operators[idx], coll.base_basis, init=init, steps=steps, callback=record, progress=False,
+                    **REFINE)
+        curves[name], snapshots[name] = c, snap
+    return curves, snapshots
+
+
+def _refinement_figures(out: Path, coll, net_method, budget: Budget) -> None:
+    """``refinement_curves.png`` (mismatch and d_R over the steps, from the base and from the network, on up to 8
+    test shapes) and ``refinement_steps.png`` (one shape after 0, 10, 100... steps, coloured by error)."""
+    import matplotlib.pyplot as plt
+
+    from .plotting import headless, plot_reconstructions, plot_refinement_curves
+
+    idx = test_set_indices(coll, "test")
+    idx = idx[np.linspace(0, len(idx) - 1, min(8, len(idx))).round().astype(int)]
+    shown = [s for s in (0, 10, 100, 1000) if s <= budget.refine_steps]
+    curves, snaps = refinement_curves(coll, idx, {"from the base (geometric)": "base",
+                                                  f"from {net_method.name}": net_method.reconstruct(idx)},
+                                      budget.refine_steps, shown)
+    fig = plot_refinement_curves(curves)
+    fig.savefig(out / "figures" / "refinement_curves.png", dpi=120)
+    plt.close(fig)
+    headless()
+    name = f"from {net_method.name}"
+    plotter = plot_reconstructions(coll.vertices[idx[:1]], {f"step {s}": snaps[name][s][None] for s in shown},
+                                   coll.faces, titles=["refined"])
+    plotter.screenshot(str(out / "figures" / "refinement_steps.png"))
+    plotter.close()

@@ -40,17 +40,19 @@ import torch
 from tqdm.auto import tqdm
 
 from ._files import atomic_write, remove_stale_tmp
-from .model import OperatorNet, rigid_alignment_loss
+from .model import VARIANTS, OperatorNet, rigid_alignment_loss
 from .shape_difference import KINDS
 
 __all__ = ["fit", "load_model", "read_history", "collection_fingerprint", "parse_channels", "resolve_device",
-           "TrainingError", "CheckpointError", "CHANNEL_SETS", "RUN_FILES"]
+           "TrainingError", "CheckpointError", "CHANNEL_SETS", "RUN_FILES", "SCHEDULES"]
 
 CHECKPOINT_FORMAT = "opnet-checkpoint"
 CHECKPOINT_VERSION = 1
 # Bump when a change to the training code changes what a run produces: runs of other versions are not resumed.
 TRAINING_VERSION = 1
 RUN_FILES = ("config.json", "latest.pt", "best.pt", "history.json")
+SCHEDULES = ("constant", "onecycle")
+_VARIANT_SCHEDULE = {"paper": "constant", "ours": "onecycle"}
 
 #: The paper's input combinations (Table 1 and the ablation of Appendix B), by their short names.
 CHANNEL_SETS = {
@@ -227,7 +229,8 @@ def _check_positive(name, value, kind=int):
 
 def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_size: int = 32, lr: float = 1e-3,
         seed: int = 0, device="auto", run_dir=None, resume: bool = True, progress: bool | None = None,
-        hidden: int = 1024, subtract_identity: bool = True) -> tuple[OperatorNet, list[dict]]:
+        hidden: int = 1024, subtract_identity: bool = True, variant: str = "paper",
+        schedule: str | None = None) -> tuple[OperatorNet, list[dict]]:
     """Train OperatorNet on the ``train`` split of ``collection``; returns the best network on ``val`` and the history.
 
     Parameters
@@ -240,7 +243,7 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
     depth : encoder depth, 1 to 4 (the paper's ablation; 1 is its model).
     epochs : passes over the training split. Resuming with more epochs continues the run.
     batch_size : shapes per optimiser step (the global batch under ``torchrun``).
-    lr : Adam's learning rate (constant).
+    lr : Adam's learning rate (the peak one under ``schedule="onecycle"``).
     seed : initialisation and shuffling (epoch ``e`` is shuffled by ``numpy.random.default_rng([seed, e])``).
     device : ``"auto"`` (CUDA when available), ``"cpu"``, ``"cuda"``...
     run_dir : path, optional
@@ -251,6 +254,13 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
     progress : bool, optional
         A progress bar over epochs with the train loss, the val ``d_R`` (×10⁻⁴) and the time left (default: on).
     hidden, subtract_identity : see :class:`opnet.OperatorNet`. The network sees ``D − I`` by default.
+    variant : ``"paper"`` (the paper's architecture) or ``"ours"`` (:data:`opnet.model.VARIANTS`: standardised
+        inputs, a displacement from the base, and ``schedule="onecycle"``); the README's variant section.
+    schedule : the learning rate over the run: ``"constant"`` (the paper's; default for ``"paper"``) or
+        ``"onecycle"`` (default for ``"ours"``): a cosine warm-up from ``lr/25`` to ``lr`` over the first 5 % of
+        the steps, then a cosine decay to ``lr/2.5e5`` at the last step (as ``torch.optim.lr_scheduler.OneCycleLR``).
+        It is a function of the step and the planned number of epochs, so a ``"onecycle"`` run resumes only with
+        the same ``epochs``.
 
     Returns
     -------
@@ -263,6 +273,11 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
     CheckpointError : ``run_dir`` holds a run of other data or settings, or an unreadable checkpoint.
     """
     channels = parse_channels(channels)
+    if variant not in VARIANTS:
+        raise ValueError(f"variant must be one of {list(VARIANTS)}, got {variant!r}.")
+    schedule = _VARIANT_SCHEDULE[variant] if schedule is None else schedule
+    if schedule not in SCHEDULES:
+        raise ValueError(f"schedule must be one of {SCHEDULES}, got {schedule!r}.")
     for name, value in (("epochs", epochs), ("batch_size", batch_size), ("hidden", hidden)):
         _check_positive(name, value)
     _check_positive("lr", lr, float)
@@ -290,10 +305,12 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(seed)
         net = OperatorNet(collection.vertices.shape[1], collection.base_basis.k, channels, depth, hidden,
-                          subtract_identity).to(device)
+                          subtract_identity, **VARIANTS[variant])
+    net.set_statistics(train_ops.cpu(), collection.base_basis.mesh.vertices).to(device)
     optimizer = torch.optim.Adam(net.parameters(), lr=lr)
     config = dict(data=_data_config(collection), model=net.config(),
-                  train=dict(epochs=epochs, batch_size=batch_size, lr=lr, seed=seed, version=TRAINING_VERSION),
+                  train=dict(epochs=epochs, batch_size=batch_size, lr=lr, seed=seed, schedule=schedule,
+                             version=TRAINING_VERSION),
                   versions=dict(opnet=_opnet_version(), torch=str(torch.__version__)), device=str(device), world_size=world)
 
     history, best_val, best_epoch, start = [], math.inf, 0, 0
@@ -327,6 +344,8 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
         model = torch.nn.parallel.DistributedDataParallel(net, device_ids=[device.index] if device.type == "cuda" else None)
     net.train()
     n = len(train_idx)
+    steps_per_epoch = -(-n // batch_size)
+    step, total_steps = start * steps_per_epoch, epochs * steps_per_epoch
     bar = tqdm(total=epochs, initial=min(start, epochs), desc=f"train {'+'.join(c[:4] for c in channels)} d{depth}",
                unit="epoch", disable=(progress is False) or rank != 0)
     try:
@@ -350,6 +369,10 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
                     torch.distributed.all_reduce(ok, op=torch.distributed.ReduceOp.MIN)
                 if not ok.item():  # before the step (earlier steps of this epoch are lost; the checkpoint is not)
                     _diverged(epoch, "the network's output or training loss", history, start, run_dir, lr)
+                if schedule == "onecycle":
+                    for group in optimizer.param_groups:
+                        group["lr"] = _onecycle(step, total_steps, lr)
+                step += 1
                 optimizer.zero_grad(set_to_none=True)
                 loss.backward()
                 optimizer.step()
@@ -399,14 +422,37 @@ def _check_same_run(saved: dict, wanted: dict, run_dir: Path) -> None:
     fix = "choose another run_dir, or pass resume=False (CLI: --restart) to replace it."
     for part in ("data", "model", "train"):
         old, new = dict(saved.get(part, {})), dict(wanted[part])
+        if part == "model":  # runs saved before an option existed were trained with its default
+            old = {**_model_defaults(), **old}
         if part == "train":
-            old.pop("epochs", None), new.pop("epochs", None)
+            old = {"schedule": "constant", **old}  # runs saved before schedules existed
+            if new.get("schedule") == "constant":  # a constant learning rate may go on for more epochs
+                old.pop("epochs", None), new.pop("epochs", None)
         if old != new:
             diff = ", ".join(f"{k}={old.get(k)!r} there but {new.get(k)!r} here" for k in sorted(set(old) | set(new))
                              if old.get(k) != new.get(k) and k != "fingerprint")
             if part == "data":
                 diff = f"{_describe(saved)} there but {_describe(wanted)} here" + (f" ({diff})" if diff else "")
             raise CheckpointError(f"{run_dir} holds a run with other {part} settings: {diff}; {fix}")
+
+
+def _onecycle(step: int, total: int, lr: float) -> float:
+    """The learning rate at ``step`` of ``total`` under ``schedule="onecycle"`` (see :func:`fit`)."""
+    warm = 0.05 * total
+
+    def cos(start, end, frac):
+        return end + (start - end) * 0.5 * (1 + math.cos(math.pi * frac))
+
+    if step < warm:
+        return cos(lr / 25, lr, step / warm)
+    return cos(lr, lr / 25 / 1e4, (step - warm) / max(total - warm, 1))
+
+
+def _model_defaults() -> dict:
+    import inspect
+
+    return {name: p.default for name, p in inspect.signature(OperatorNet).parameters.items()
+            if p.default is not inspect.Parameter.empty and name not in ("k", "channels", "depth", "hidden")}
 
 
 def _opnet_version() -> str:

@@ -81,25 +81,32 @@ def test_operatornet_method_decodes_its_channels(coll):
 def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch):
     tiny = tiny_collection("humans")
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: tiny)
-    budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16)
+    budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, refine_steps=5, refine_shapes=3)
     rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False)
     saved = json.loads((tmp_path / "results.json").read_text())
     assert saved == json.loads(json.dumps(rows))
     t1 = [r for r in saved if r["table"] == "table1"]
     assert {(r["method"], r["split"]) for r in t1} == {
-        (m, s) for m in [*reproduce.TABLE1, "Nearest neighbour (Int+Ext)", "Base shape"] for s in evaluate.TEST_SETS}
+        (m, s) for m in [*reproduce.TABLE1, *reproduce.OURS, "Nearest neighbour (Int+Ext)", "Base shape",
+                         "Geometric (Int+Ext)", "OperatorNet (Int+Ext) + refinement",
+                         "OperatorNet ours (Int+Ext) + refinement"] for s in evaluate.TEST_SETS}
+    refined = [r for r in t1 if r["method"].endswith("refinement") or r["method"].startswith("Geometric")]
+    assert all(r["n_shapes"] == 3 for r in refined)  # at most refine_shapes per test set
+    assert all(np.isfinite(r["d_R_before"]) for r in refined if r["method"].endswith("refinement"))
     abl = [r for r in saved if r["table"] == "ablation"]
     assert len(abl) == 28 and {r["split"] for r in abl} == {"test"}
     assert np.isfinite(reproduce.ablation_table(saved)).all()
     for r in saved:
         assert {"method", "channels", "depth", "split", "d_R", "d_V", "d_E", "n_shapes", "train_seconds", "preset",
-                "device"} <= set(r)
+                "device", "seconds_per_shape"} <= set(r)
     md = (tmp_path / "results.md").read_text()
     assert "OperatorNet (Int+Ext)" in md and "1.11" in md and "Ablation" in md and "8.61" in md
-    for name in ("training_curves", "ablation", "reconstructions_test", "reconstructions_test_subjects"):
+    assert "OperatorNet ours (Int+Ext)" in md and "s/shape" in md and "refinement changes" in md
+    for name in ("training_curves", "ablation", "reconstructions_test", "reconstructions_test_subjects",
+                 "refinement_curves", "refinement_steps"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     # a second call trains nothing more: every run is finished
     mtimes = {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
-    assert len(mtimes) == 31
+    assert len(mtimes) == 32
     reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, figures=False)
     assert mtimes == {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}

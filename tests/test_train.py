@@ -206,6 +206,74 @@ def test_identity_subtraction_is_inside_the_network():
     assert not torch.allclose(a(D), b(D))
 
 
+def test_variant_ours_standardises_and_decodes_from_the_base(coll, tmp_path):
+    net, hist = train.fit(coll, epochs=4, run_dir=tmp_path / "ours", variant="ours", **FAST)
+    assert net.standardize and net.residual
+    tr = coll.indices("train")
+    ops = torch.from_numpy(coll.operators[tr])
+    assert torch.allclose(net.input_mean, ops.mean(0), atol=1e-6)
+    assert torch.equal(net.base, torch.tensor(coll.base_basis.mesh.vertices, dtype=torch.float32))
+    # the decoder's output is a displacement: with a zero last layer the network returns the base shape
+    zero = train.load_model(tmp_path / "ours", coll)
+    torch.nn.init.zeros_(zero.decoder[-1].weight), torch.nn.init.zeros_(zero.decoder[-1].bias)
+    assert torch.allclose(zero(ops[:2]), zero.base.expand(2, -1, -1))
+    # buffers travel with the checkpoint; the schedule is recorded and the learning rate decays to ~0
+    loaded = train.load_model(tmp_path / "ours", coll)
+    assert torch.equal(loaded(ops[:3]), net(ops[:3]))
+    config = json.loads((tmp_path / "ours" / "config.json").read_text())
+    assert config["train"]["schedule"] == "onecycle" and config["model"]["standardize"] is True
+    latest = torch.load(tmp_path / "ours" / "latest.pt", weights_only=True)
+    assert latest["optimizer"]["param_groups"][0]["lr"] < 0.05 * FAST["lr"]
+    with pytest.raises(train.CheckpointError, match="epochs=4 there but 6 here"):
+        train.fit(coll, epochs=6, run_dir=tmp_path / "ours", variant="ours", **FAST)
+    with pytest.raises(ValueError, match="variant must be one of"):
+        train.fit(coll, epochs=1, variant="mine", **FAST)
+
+
+def test_onecycle_resume_is_exact(coll, tmp_path):
+    full, hist_full = train.fit(coll, epochs=5, run_dir=tmp_path / "a", schedule="onecycle", **FAST)
+    # interrupt a second run after 2 of its 5 epochs (at the progress bar's second update), then resume it
+    ckpt_dir = tmp_path / "b"
+    real = train.tqdm
+
+    class Stop(Exception):
+        pass
+
+    calls = {"n": 0}
+
+    class Bar(real):
+        def update(self, n=1):
+            calls["n"] += 1
+            if calls["n"] == 2:
+                raise Stop
+            return super().update(n)
+
+    train.tqdm = Bar
+    try:
+        with pytest.raises(Stop):
+            train.fit(coll, epochs=5, run_dir=ckpt_dir, schedule="onecycle", **FAST)
+    finally:
+        train.tqdm = real
+    assert [h["epoch"] for h in train.read_history(ckpt_dir)] == [1, 2]
+    resumed, hist_resumed = train.fit(coll, epochs=5, run_dir=ckpt_dir, schedule="onecycle", **FAST)
+    assert _same_history(hist_full, hist_resumed)
+    assert all(torch.equal(a, b) for a, b in zip(_weights(full).values(), _weights(resumed).values()))
+
+
+def test_runs_saved_before_the_variant_options_still_resume(coll, tmp_path):
+    train.fit(coll, epochs=2, run_dir=tmp_path, **FAST)
+    config = json.loads((tmp_path / "config.json").read_text())
+    ckpt = torch.load(tmp_path / "latest.pt", weights_only=True)
+    for c in (config, ckpt["config"]):  # as written by the previous version
+        for key in ("standardize", "residual"):
+            c["model"].pop(key)
+        c["train"].pop("schedule")
+    (tmp_path / "config.json").write_text(json.dumps(config))
+    torch.save(ckpt, tmp_path / "latest.pt")
+    _, hist = train.fit(coll, epochs=3, run_dir=tmp_path, **FAST)
+    assert [h["epoch"] for h in hist] == [1, 2, 3]
+
+
 def _cli(*args, env=None, **kw):
     return subprocess.run([sys.executable, "-m", "opnet", *args], capture_output=True, text=True, env=env, **kw)
 
