@@ -54,7 +54,7 @@ def _as_operators(operators, channels, k) -> torch.Tensor:
         raise ValueError("operators is an empty batch (B = 0); pass at least one shape.")
     if not np.isfinite(arr).all():
         raise ValueError("operators contain NaN or infinite values.")
-    return torch.as_tensor(arr, dtype=torch.float64)
+    return torch.tensor(arr, dtype=torch.float64)
 
 
 def _as_init(init, base_basis: Eigenbasis, batch: int) -> torch.Tensor:
@@ -78,7 +78,7 @@ def _as_init(init, base_basis: Eigenbasis, batch: int) -> torch.Tensor:
         shape, face = np.argwhere(bad)[0]
         raise ValueError(f"init has zero-area faces in {int(bad.any(-1).sum())} shapes (first: shape {shape}, face {face}); "
                          "the cotan weights are undefined there. Start from 'base' or repair those shapes.")
-    return torch.as_tensor(arr, dtype=torch.float64).clone()
+    return torch.tensor(arr, dtype=torch.float64)
 
 
 def operator_mismatch(module: ShapeDifferences, X: torch.Tensor, target: torch.Tensor,
