@@ -30,7 +30,7 @@ from .evaluate import (TEST_SETS, base_shape_method, evaluate, geometric_method,
 from .shape_difference import KINDS
 from .train import CHANNEL_SETS
 
-__all__ = ["reproduce", "run_path", "ablation_table", "results_markdown", "refinement_curves", "Budget", "BUDGETS", "TABLE1", "OURS", "REFINE", "ABLATION_SETS", "ABLATION_DEPTHS", "PAPER_TABLE1",
+__all__ = ["reproduce", "run_path", "ablation_table", "results_markdown", "refinement_curves", "snapshot_steps", "Budget", "BUDGETS", "TABLE1", "OURS", "REFINE", "REFINE_SETS", "ABLATION_SETS", "ABLATION_DEPTHS", "PAPER_TABLE1",
            "PAPER_ABLATION"]
 
 
@@ -43,8 +43,8 @@ class Budget:
     batch_size: int = 32
     lr: float = 1e-3
     hidden: int = 1024
-    refine_steps: int = 100
-    refine_shapes: int = 160
+    refine_steps: int = 300
+    refine_shapes: int = 80
 
 
 BUDGETS = {
@@ -62,8 +62,10 @@ ABLATION_DEPTHS = (1, 2, 3, 4)
 
 #: This project's variant (:data:`opnet.model.VARIANTS` ``["ours"]``), trained like Table 1's networks.
 OURS = {"OperatorNet ours (Int+Ext)": KINDS}
-#: The operator-matching rows (:func:`opnet.reconstruct`): its settings, chosen on ``val`` (README).
-REFINE = dict(optimizer="lbfgs", smoothness=0.1)
+#: The operator-matching rows (:func:`opnet.reconstruct`): its settings, chosen on ``val`` (README), and the
+#: test sets they are evaluated on (at most ``Budget.refine_shapes`` shapes of each).
+REFINE = dict(channels=("area", "extrinsic"), optimizer="lbfgs", smoothness=1.0)
+REFINE_SETS = ("test", "test_subjects")
 
 #: The paper's Table 1 on DFAUST (d_R ×10⁻⁴, d_V, d_E), for reference beside ours.
 PAPER_TABLE1 = {"OperatorNet (Int+Ext)": (1.11, 0.014, 0.045), "OperatorNet (Int)": (2.41, 0.013, 0.046),
@@ -96,8 +98,8 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     ablation : also train and evaluate the depth × channels grid (Appendix B).
     figures : also write the figures (PNG) under ``out/figures``.
     refine : also evaluate the operator-matching rows: the geometric baseline and OperatorNet + refinement
-        (:func:`opnet.reconstruct`, ``budget.refine_steps`` steps, on at most ``budget.refine_shapes`` shapes of
-        each test set, evenly spaced: they take about a second per shape).
+        (:func:`opnet.reconstruct` with :data:`REFINE`, ``budget.refine_steps`` steps, on at most
+        ``budget.refine_shapes`` shapes of each of :data:`REFINE_SETS`, evenly spaced: they take seconds per shape).
     budget : training settings; default ``BUDGETS[preset]``.
     data_root : where collections are cached (default ``opnet.data.default_root()``).
     progress : ``None`` (default): one progress bar over the networks; ``True``: also a bar per network over
@@ -143,13 +145,15 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     for m in methods:
         m.info = dict(table="table1", **devices[m.name])
     baselines = [nearest_neighbour_method(coll, KINDS), base_shape_method(coll)]
+    matching = []
     if refine:
         options = dict(REFINE, steps=budget.refine_steps, max_shapes=budget.refine_shapes, device=device)
-        baselines += [geometric_method(coll, KINDS, **options)]
-        baselines += [refined_method(m, coll, KINDS, **options) for m in methods if m.channels == KINDS]
-    for m in baselines:
+        matching = [geometric_method(coll, **options)]
+        matching += [refined_method(m, coll, **options) for m in methods if m.channels == KINDS]
+    for m in baselines + matching:
         m.info = dict(table="table1", epochs=None, train_seconds=None, device=str(device))
     rows = evaluate(coll, methods + baselines, TEST_SETS, extra=info)
+    rows += evaluate(coll, matching, REFINE_SETS, extra=info)
     context = dict(preset=preset, budget=asdict(budget), machine=_machine(device), collection=repr(coll),
                    splits={s: int(np.sum(coll.split == s)) for s in ("train", "val", "test", "test_subjects")},
                    eval_subset=int(len(coll.eval_subset)))
@@ -359,10 +363,16 @@ def refinement_curves(coll, idx, inits: dict, steps: int, snapshot_steps=()) -> 
             if step in snapshot_steps:
                 snap[step] = X[0].cpu().numpy()
 
-        reconstruct(coll.operators[idx], coll.base_basis, init=init, steps=steps, callback=record, progress=False,
-                    **REFINE)
+        chans = [KINDS.index(c) for c in REFINE["channels"]]
+        reconstruct(coll.operators[idx][:, chans], coll.base_basis, init=init, steps=steps, callback=record,
+                    progress=False, **REFINE)
         curves[name], snapshots[name] = c, snap
     return curves, snapshots
+
+
+def snapshot_steps(steps: int) -> list[int]:
+    """The steps shown in refinement figures: 0, 10, 100, ... up to ``steps``, and ``steps`` itself."""
+    return sorted({s for s in (0, 10, 100, 1000) if s <= steps} | {steps})
 
 
 def _refinement_figures(out: Path, coll, net_method, budget: Budget) -> None:
@@ -374,7 +384,7 @@ def _refinement_figures(out: Path, coll, net_method, budget: Budget) -> None:
 
     idx = test_set_indices(coll, "test")
     idx = idx[np.linspace(0, len(idx) - 1, min(8, len(idx))).round().astype(int)]
-    shown = [s for s in (0, 10, 100, 1000) if s <= budget.refine_steps]
+    shown = snapshot_steps(budget.refine_steps)
     curves, snaps = refinement_curves(coll, idx, {"from the base (geometric)": "base",
                                                   f"from {net_method.name}": net_method.reconstruct(idx)},
                                       budget.refine_steps, shown)

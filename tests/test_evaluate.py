@@ -87,9 +87,10 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch):
     assert saved == json.loads(json.dumps(rows))
     t1 = [r for r in saved if r["table"] == "table1"]
     assert {(r["method"], r["split"]) for r in t1} == {
-        (m, s) for m in [*reproduce.TABLE1, *reproduce.OURS, "Nearest neighbour (Int+Ext)", "Base shape",
-                         "Geometric (Int+Ext)", "OperatorNet (Int+Ext) + refinement",
-                         "OperatorNet ours (Int+Ext) + refinement"] for s in evaluate.TEST_SETS}
+        (m, s) for m in [*reproduce.TABLE1, *reproduce.OURS, "Nearest neighbour (Int+Ext)", "Base shape"]
+        for s in evaluate.TEST_SETS} | {
+        (m, s) for m in ["Geometric (A+E)", "OperatorNet (Int+Ext) + refinement", "OperatorNet ours (Int+Ext) + refinement"]
+        for s in reproduce.REFINE_SETS}
     refined = [r for r in t1 if r["method"].endswith("refinement") or r["method"].startswith("Geometric")]
     assert all(r["n_shapes"] == 3 for r in refined)  # at most refine_shapes per test set
     assert all(np.isfinite(r["d_R_before"]) for r in refined if r["method"].endswith("refinement"))

@@ -86,3 +86,14 @@ def test_functional_shorthand_and_bad_input(base_basis, deformed):
         ShapeDifferences(base_basis, (opnet.AreaInnerProduct(),))
     # numpy input is accepted (converted losslessly)
     assert torch.allclose(module(deformed), module(torch.tensor(deformed)))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_gradient_sums_to_zero_over_the_vertices(base_basis, deformed, kind):
+    """The operators are invariant to translations, so the gradient of any function of them sums to zero."""
+    module = ShapeDifferences(base_basis, (kind,))
+    X = torch.tensor(deformed[:1], requires_grad=True)
+    weights = torch.randn(base_basis.k, base_basis.k, generator=torch.Generator().manual_seed(0), dtype=torch.float64)
+    (g,) = torch.autograd.grad((module(X)[0, 0] * weights).sum(), X)
+    assert g.abs().max() > 0
+    assert torch.allclose(g.sum(1), torch.zeros(1, 3, dtype=torch.float64), atol=1e-9 * g.abs().max().item())
