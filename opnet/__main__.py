@@ -80,6 +80,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--device", default="auto", help="auto, cpu, cuda")
     r.add_argument("--no-ablation", action="store_true", help="only Table 1")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    r.add_argument("--no-refine", action="store_true",
+                   help="skip the operator-matching rows (geometric baseline, + refinement; seconds per shape)")
     r.add_argument("--data-root", default=None, help="where collections are cached")
     return p
 
@@ -202,7 +204,8 @@ def _run(args) -> int:
     from .reproduce import reproduce
 
     rows = reproduce(args.preset, args.out, device=args.device, ablation=not args.no_ablation,
-                     figures=not args.no_figures, data_root=args.data_root, progress=True)
+                     figures=not args.no_figures, refine=not args.no_refine, data_root=args.data_root,
+                     progress=True)
     print(_table([r for r in rows if r["table"] == "table1"]))
     print(f"results: {args.out or f'reproduce-{args.preset}'}/results.md")
     return 0

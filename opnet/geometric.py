@@ -88,7 +88,7 @@ def operator_mismatch(module: ShapeDifferences, X: torch.Tensor, target: torch.T
 
 
 def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KINDS, steps: int = 100,
-                optimizer: str = "lbfgs", lr: float | None = None, smoothness: float = 1e-3, batch_size: int = 64,
+                optimizer: str = "lbfgs", lr: float | None = None, smoothness: float = 1.0, batch_size: int = 64,
                 device="cpu", callback=None, progress: bool | None = None) -> np.ndarray:
     """Vertices ``(B, n, 3)`` float64 whose shape differences match ``operators``, on the base's triangulation.
 
@@ -102,9 +102,12 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
         The starting shape (see the module docstring): the base (geometric baseline) or a decoded shape.
     channels : the kinds of the operators' channels, in their order.
     steps : optimiser iterations (L-BFGS iterations, each with its line search; or Adam steps).
-    optimizer : ``"lbfgs"`` (default; strong-Wolfe line search) or ``"adam"``.
-    lr : step size (default 1 for L-BFGS, 1e-3 m for Adam).
-    smoothness : weight of the displacement's Dirichlet energy (0 disables it).
+    optimizer : ``"lbfgs"`` (default: per-shape L-BFGS with Armijo backtracking) or ``"adam"``.
+    lr : L-BFGS: the first step moves the vertex with the largest gradient by ``lr`` % of the shape's
+        bounding-box diagonal (default 1; later steps are scaled by the curvature pairs). Adam: its step size in
+        length units (default 1e-3).
+    smoothness : weight of the displacement's Dirichlet energy (0 disables it; the default 1 was chosen on
+        ``val``, README).
     batch_size : shapes optimised together (each has its own objective; the batch shares the iterations).
     device : where to compute (``"cpu"``, ``"cuda"``); float64 throughout.
     callback : called as ``callback(step, X, mismatch)`` after every step, with ``step`` from 0 (the start),
@@ -118,8 +121,8 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
 
     Warns
     -----
-    RuntimeWarning : a step made the objective NaN or infinite (for example a triangle collapsed); those shapes
-        keep their best iterate and the optimiser restarts from it; after three such steps the batch stops.
+    RuntimeWarning : (Adam) a step made the objective NaN or infinite (for example a triangle collapsed); those
+        shapes go back to their best iterate. L-BFGS accepts only finite steps that decrease the objective.
     """
     if not isinstance(base_basis, Eigenbasis):
         raise TypeError(f"base_basis must be an opnet.Eigenbasis, got {type(base_basis).__name__}.")
