@@ -256,8 +256,8 @@ def results_markdown(rows: list[dict], context: dict) -> str:
     lines += ["", "s/shape: the method's wall time per reconstructed shape (decoding, search or optimisation; not "
               "training)."]
     for m, where in subsampled.items():
-        lines.append(f"{m}: evaluated on {', '.join(where)} (evenly spaced; the optimisation takes about a second "
-                     "per shape).")
+        lines.append(f"{m}: evaluated on {', '.join(where)} (evenly spaced, to bound the optimisation's time; "
+                     "`Budget.refine_shapes`).")
     lines += ["", "## Targets", ""] + _targets(t1)
     table = ablation_table(rows)
     if np.isfinite(table).any():
