@@ -230,7 +230,8 @@ def _check_positive(name, value, kind=int):
 def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_size: int = 32, lr: float = 1e-3,
         seed: int = 0, device="auto", run_dir=None, resume: bool = True, progress: bool | None = None,
         hidden: int = 1024, subtract_identity: bool = True, variant: str = "paper",
-        schedule: str | None = None) -> tuple[OperatorNet, list[dict]]:
+        schedule: str | None = None, standardize: bool | None = None,
+        residual: bool | None = None) -> tuple[OperatorNet, list[dict]]:
     """Train OperatorNet on the ``train`` split of ``collection``; returns the best network on ``val`` and the history.
 
     Parameters
@@ -261,6 +262,8 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
         the steps, then a cosine decay to ``lr/2.5e5`` at the last step (as ``torch.optim.lr_scheduler.OneCycleLR``).
         It is a function of the step and the planned number of epochs, so a ``"onecycle"`` run resumes only with
         the same ``epochs``.
+    standardize, residual : override the variant's network options one by one (see :class:`opnet.OperatorNet`),
+        e.g. to measure each part of ``"ours"`` alone (``benchmarks/variants.py``).
 
     Returns
     -------
@@ -304,8 +307,10 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
     (train_ops, train_X), (val_ops, val_X) = tensors(train_idx), tensors(val_idx)
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(seed)
+        options = {**VARIANTS[variant], **{k: v for k, v in (("standardize", standardize), ("residual", residual))
+                                           if v is not None}}
         net = OperatorNet(collection.vertices.shape[1], collection.base_basis.k, channels, depth, hidden,
-                          subtract_identity, **VARIANTS[variant])
+                          subtract_identity, **options)
     net.set_statistics(train_ops.cpu(), collection.base_basis.mesh.vertices).to(device)
     optimizer = torch.optim.Adam(net.parameters(), lr=lr)
     config = dict(data=_data_config(collection), model=net.config(),

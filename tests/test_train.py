@@ -228,6 +228,9 @@ def test_variant_ours_standardises_and_decodes_from_the_base(coll, tmp_path):
         train.fit(coll, epochs=6, run_dir=tmp_path / "ours", variant="ours", **FAST)
     with pytest.raises(ValueError, match="variant must be one of"):
         train.fit(coll, epochs=1, variant="mine", **FAST)
+    # each part alone (benchmarks/variants.py)
+    alone, _ = train.fit(coll, epochs=1, standardize=True, **FAST)
+    assert alone.standardize and not alone.residual
 
 
 def test_onecycle_resume_is_exact(coll, tmp_path):
