@@ -59,7 +59,7 @@ def main(argv=None):
     err = None
     for dev in devices:
         for dtype in (torch.float64, torch.float32):
-            module = ShapeDifferences(basis, device=dev, dtype=dtype)
+            module = ShapeDifferences(basis, device=dev)
             X = torch.tensor(shapes, dtype=dtype, device=dev)
             for mode in ("forward", "forward + backward"):
                 def run():

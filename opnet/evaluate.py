@@ -74,6 +74,11 @@ class Method:
     info: dict = field(default_factory=dict)
     max_shapes: int | None = None
 
+    def __post_init__(self):
+        if self.max_shapes is not None and (not isinstance(self.max_shapes, (int, np.integer))
+                                            or isinstance(self.max_shapes, bool) or self.max_shapes < 1):
+            raise ValueError(f"max_shapes must be a positive integer or None, got {self.max_shapes!r}.")
+
 
 def predict(net, operators, *, batch_size: int = 256) -> np.ndarray:
     """Decode operators ``(N, C, k, k)`` (the network's channels, in its order) → vertices ``(N, n, 3)`` float64."""

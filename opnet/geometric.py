@@ -20,6 +20,7 @@ step that diverges (a triangle collapsing, NaN) never reaches the result.
 """
 from __future__ import annotations
 
+import numbers
 import warnings
 
 import numpy as np
@@ -81,6 +82,10 @@ def _as_init(init, base_basis: Eigenbasis, batch: int) -> torch.Tensor:
     return torch.tensor(arr, dtype=torch.float64)
 
 
+def _is_real(value) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
 def operator_mismatch(module: ShapeDifferences, X: torch.Tensor, target: torch.Tensor,
                       scale: torch.Tensor) -> torch.Tensor:
     """Relative operator mismatch ``(B,)``: ``Σ_c ‖D_c(X) − D*_c‖²_F / scale_c`` for ``target`` ``(B, C, k, k)``."""
@@ -109,7 +114,7 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
     smoothness : weight of the displacement's Dirichlet energy (0 disables it; the default 1 was chosen on
         ``val``, README).
     batch_size : shapes optimised together (each has its own objective; the batch shares the iterations).
-    device : where to compute (``"cpu"``, ``"cuda"``); float64 throughout.
+    device : where to compute: ``"cpu"`` (default), ``"cuda"``, or ``"auto"`` (CUDA when available); float64.
     callback : called as ``callback(step, X, mismatch)`` after every step, with ``step`` from 0 (the start),
         ``X`` ``(b, n, 3)`` the current vertices of the batch and ``mismatch`` ``(b,)`` their relative operator
         mismatch (tensors, detached); e.g. to record curves. Batches come one after the other.
@@ -126,7 +131,7 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
     """
     if not isinstance(base_basis, Eigenbasis):
         raise TypeError(f"base_basis must be an opnet.Eigenbasis, got {type(base_basis).__name__}.")
-    from .train import parse_channels
+    from .train import parse_channels, resolve_device
 
     channels = parse_channels(channels)
     target = _as_operators(operators, channels, base_basis.k)
@@ -136,13 +141,14 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
     for name, value, positive in (("steps", steps, False), ("batch_size", batch_size, True)):
         if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < int(positive):
             raise ValueError(f"{name} must be a {'positive' if positive else 'non-negative'} integer, got {value!r}.")
-    if not (isinstance(smoothness, (int, float)) and np.isfinite(smoothness) and smoothness >= 0):
+    if not (_is_real(smoothness) and np.isfinite(smoothness) and smoothness >= 0):
         raise ValueError(f"smoothness must be a finite number >= 0, got {smoothness!r}.")
     lr = (1.0 if optimizer == "lbfgs" else 1e-3) if lr is None else lr
-    if not (isinstance(lr, (int, float)) and np.isfinite(lr) and lr > 0):
+    if not (_is_real(lr) and np.isfinite(lr) and lr > 0):
         raise ValueError(f"lr must be a positive number, got {lr!r}.")
+    smoothness, lr = float(smoothness), float(lr)
 
-    device = torch.device(device)
+    device = resolve_device(device)
     module = ShapeDifferences(base_basis, channels, device=device)
     base = torch.tensor(base_basis.mesh.vertices, device=device)[None]
     faces = base_basis.mesh.faces
@@ -158,10 +164,10 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
         scale = ((D - at_base) ** 2).sum((-1, -2)).clamp_min(1e-12 * base_basis.k)
         start = X_init[s:s + batch_size].to(device)
 
-        def objective(X):
-            d = X - start
+        def objective(X, rows=slice(None)):  # X: the shapes `rows` of this batch
+            d = X - start[rows]
             smooth = (w * ((d[:, edges[:, 0]] - d[:, edges[:, 1]]) ** 2).sum(-1)).sum(-1)
-            mismatch = operator_mismatch(module, X, D, scale)
+            mismatch = operator_mismatch(module, X, D[rows], scale[rows])
             return mismatch + smoothness * smooth, mismatch
 
         minimise = _lbfgs if optimizer == "lbfgs" else _adam
@@ -170,11 +176,12 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
     return out
 
 
-def _value_and_grad(objective, X: torch.Tensor):
-    """Per-shape objective ``(b,)``, mismatch ``(b,)`` and gradient ``(b, n, 3)`` (shapes are independent)."""
+def _value_and_grad(objective, X: torch.Tensor, rows=slice(None)):
+    """Per-shape objective ``(b,)``, mismatch ``(b,)`` and gradient ``(b, n, 3)`` of the shapes ``rows`` of the
+    batch, at ``X`` (their coordinates; shapes are independent). Non-finite objectives come back as ``inf``."""
     X = X.detach().requires_grad_(True)
     with torch.enable_grad():
-        f, mismatch = objective(X)
+        f, mismatch = objective(X, rows)
         finite = torch.isfinite(f)
         (grad,) = torch.autograd.grad(torch.where(finite, f, torch.zeros_like(f)).sum(), X)
     f = torch.where(finite, f, torch.full_like(f, float("inf")))
@@ -191,55 +198,58 @@ def _lbfgs(objective, start: torch.Tensor, steps: int, lr: float, callback, bar,
     ``torch.optim.LBFGS`` treats a batch as one problem (one line search, curvature pairs mixing shapes),
     which stalls the shapes that converge slower; here each shape has its own history and step length.
     The first step moves the vertex with the largest gradient by ``lr`` % of the start's bounding-box
-    diagonal. A trial step is accepted only where the objective is finite and decreases enough, so the
-    iterates never diverge.
+    diagonal; later steps are scaled by the shape's latest valid curvature pair. A trial step is accepted only
+    where the objective is finite and decreases enough, so the iterates never diverge. A shape whose line
+    search fails (at a minimum, or at the objective's rounding noise) is frozen: it costs nothing more.
     """
     X = start.clone()
     f, mismatch, g = _value_and_grad(objective, X)
     diag = (start.amax(1) - start.amin(1)).norm(dim=-1)  # (b,)
     diag = torch.where(diag > 0, diag, torch.ones_like(diag))
+    active = torch.isfinite(f) & (g.abs().amax((-1, -2)) > 0)
     pairs: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]] = []
     if callback is not None:
         callback(0, X.clone(), mismatch)
     for step in range(1, steps + 1):
-        q, alphas = g.clone(), []
-        for s, y, rho in reversed(pairs):
-            a = rho * _dot(s, q)
-            q -= a[:, None, None] * y
-            alphas.append(a)
-        if pairs:
-            s, y, rho = pairs[-1]
-            yy = _dot(y, y)
-            gamma = torch.where(rho > 0, _dot(s, y) / yy.clamp_min(1e-300), 0.01 * lr * diag / g.abs().amax((-1, -2)))
-        else:
-            gamma = 0.01 * lr * diag / g.abs().amax((-1, -2)).clamp_min(1e-300)
-        r = gamma[:, None, None] * q
-        for (s, y, rho), a in zip(pairs, reversed(alphas)):
-            r += s * (a - rho * _dot(y, r))[:, None, None]
-        d = -r
-        slope = _dot(g, d)
-        reset = ~(slope < 0)  # not a descent direction: fall back to steepest descent
-        if reset.any():
-            d[reset] = -(gamma[reset, None, None] * g[reset])
+        if active.any():
+            q, alphas = g.clone(), []
+            for s, y, rho in reversed(pairs):
+                a = rho * _dot(s, q)
+                q -= a[:, None, None] * y
+                alphas.append(a)
+            first = 0.01 * lr * diag / g.abs().amax((-1, -2)).clamp_min(1e-300)
+            gamma = first
+            for s, y, rho in pairs:  # the latest pair with positive curvature scales the step
+                gamma = torch.where(rho > 0, _dot(s, y) / _dot(y, y).clamp_min(1e-300), gamma)
+            r = gamma[:, None, None] * q
+            for (s, y, rho), a in zip(pairs, reversed(alphas)):
+                r += s * (a - rho * _dot(y, r))[:, None, None]
+            d = torch.nan_to_num(-r)
             slope = _dot(g, d)
-        t = torch.ones_like(f)
-        pending = slope < 0
-        X_new, f_new, m_new, g_new = X.clone(), f.clone(), mismatch.clone(), g.clone()
-        for _ in range(30):  # backtracking, per shape
-            trial = X + t[:, None, None] * d
-            ft, mt, gt = _value_and_grad(objective, trial)
-            accept = pending & (ft <= f + 1e-4 * t * slope)
-            X_new[accept], f_new[accept], m_new[accept], g_new[accept] = trial[accept], ft[accept], mt[accept], gt[accept]
-            pending &= ~accept
-            if not pending.any():
-                break
-            t = torch.where(pending, 0.5 * t, t)
-        s_k, y_k = X_new - X, g_new - g
-        sy = _dot(s_k, y_k)
-        rho = torch.where(sy > 1e-12 * _dot(s_k, s_k).sqrt() * _dot(y_k, y_k).sqrt(), 1.0 / sy, torch.zeros_like(sy))
-        rho[reset] = 0.0
-        pairs = (pairs + [(s_k, y_k, rho)])[-memory:]
-        X, f, mismatch, g = X_new, f_new, m_new, g_new
+            reset = active & ~(slope < 0)  # not a descent direction: fall back to steepest descent
+            d[reset] = -(first[reset, None, None] * g[reset])
+            slope = _dot(g, d)
+            t = torch.ones_like(f)
+            pending = active & (slope < 0)
+            X_new, f_new, m_new, g_new = X.clone(), f.clone(), mismatch.clone(), g.clone()
+            for _ in range(30):  # backtracking, per shape, on the shapes still searching
+                rows = torch.nonzero(pending).squeeze(1)
+                trial = X[rows] + t[rows, None, None] * d[rows]
+                ft, mt, gt = _value_and_grad(objective, trial, rows)
+                ok = ft <= f[rows] + 1e-4 * t[rows] * slope[rows]
+                done = rows[ok]
+                X_new[done], f_new[done], m_new[done], g_new[done] = trial[ok], ft[ok], mt[ok], gt[ok]
+                pending[done] = False
+                if not pending.any():
+                    break
+                t = torch.where(pending, 0.5 * t, t)
+            active &= ~pending  # no acceptable step: converged to rounding noise, or stuck
+            s_k, y_k = X_new - X, g_new - g
+            sy = _dot(s_k, y_k)
+            curved = sy > 1e-12 * _dot(s_k, s_k).sqrt() * _dot(y_k, y_k).sqrt()
+            rho = torch.where(curved & ~reset, 1.0 / sy.clamp_min(1e-300), torch.zeros_like(sy))
+            pairs = (pairs + [(s_k, y_k, rho)])[-memory:]
+            X, f, mismatch, g = X_new, f_new, m_new, g_new
         if callback is not None:
             callback(step, X.clone(), mismatch)
         bar.update(1)
@@ -263,7 +273,7 @@ def _adam(objective, start: torch.Tensor, steps: int, lr: float, callback, bar) 
             break
         if not ok.all():
             warnings.warn(f"step {step}: the objective of {int((~ok).sum())} shapes became NaN or infinite (a triangle "
-                          "collapsed?); they restart from their best iterate. Lower lr.", RuntimeWarning, stacklevel=4)
+                          "collapsed?); they restart from their best iterate. Lower lr.", RuntimeWarning, stacklevel=3)
             with torch.no_grad():
                 X.copy_(torch.where(ok[:, None, None], X, best_X))
         X.grad = g

@@ -61,6 +61,9 @@ class OperatorNet(nn.Module):
             self.register_buffer("input_std", torch.ones(len(channels), k, k))
         if self.residual:
             self.register_buffer("base", torch.zeros(n_vertices, 3))
+        if self.standardize or self.residual:  # saved with the weights, so a loaded network counts as set
+            self.register_buffer("statistics_set", torch.tensor(False))
+            self._register_load_state_dict_pre_hook(_statistics_were_set)
         layers, width, size = [], len(channels), k
         for i in range(depth):
             layers += [nn.Conv2d(width, 8 * 2**i, kernel_size=3, stride=2, padding=1), nn.ReLU()]
@@ -77,6 +80,9 @@ class OperatorNet(nn.Module):
         if operators.ndim != 4 or tuple(operators.shape[1:]) != expected:
             raise ValueError(f"OperatorNet expects operators of shape (B, {expected[0]}, {self.k}, {self.k}) for channels "
                              f"{self.channels}, got {tuple(operators.shape)}.")
+        if (self.standardize or self.residual) and not self.statistics_set:
+            raise RuntimeError("this OperatorNet standardizes its inputs or decodes from the base, but its statistics "
+                               "are not set: call net.set_statistics(train_operators, base_vertices) first (fit does).")
         if self.standardize:
             operators = (operators - self.input_mean) / self.input_std
         elif self.subtract_identity:
@@ -99,6 +105,8 @@ class OperatorNet(nn.Module):
                     raise ValueError(f"residual=True needs the base shape's vertices ({self.n_vertices}, 3), got "
                                      f"{None if base_vertices is None else np.shape(base_vertices)}.")
                 self.base.copy_(torch.tensor(np.asarray(base_vertices), dtype=self.base.dtype))
+            if self.standardize or self.residual:
+                self.statistics_set.fill_(True)
         return self
 
     def config(self) -> dict:
@@ -106,6 +114,13 @@ class OperatorNet(nn.Module):
         return dict(n_vertices=self.n_vertices, k=self.k, channels=list(self.channels), depth=self.depth,
                     hidden=self.hidden, subtract_identity=self.subtract_identity, standardize=self.standardize,
                     residual=self.residual)
+
+
+def _statistics_were_set(state_dict, prefix, *args) -> None:
+    """Checkpoints written before the ``statistics_set`` flag existed came from :func:`opnet.train.fit`, which
+    always sets the statistics: read them as set."""
+    if prefix + "input_mean" in state_dict or prefix + "base" in state_dict:
+        state_dict.setdefault(prefix + "statistics_set", torch.tensor(True))
 
 
 def kabsch_torch(X: torch.Tensor, Y: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

@@ -161,7 +161,7 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     if figures:
         _figures(out, coll, methods[0], baselines[0], {k.split(" ", 1)[1]: h for k, h in histories.items()})
         if refine:
-            _refinement_figures(out, coll, methods[0], budget)
+            _refinement_figures(out, coll, methods[0], budget, device)
 
     if ablation:
         for depth in ABLATION_DEPTHS:
@@ -343,7 +343,7 @@ def _figures(out: Path, coll, ours, nn, histories: dict) -> None:
         plotter.close()
 
 
-def refinement_curves(coll, idx, inits: dict, steps: int, snapshot_steps=()) -> tuple[dict, dict]:
+def refinement_curves(coll, idx, inits: dict, steps: int, snapshot_steps=(), *, device="cpu") -> tuple[dict, dict]:
     """Run :func:`opnet.reconstruct` (settings :data:`REFINE`) on shapes ``idx`` from each start in ``inits``
     (name → ``"base"`` or vertices ``(len(idx), n, 3)``), recording after every step the mean relative operator
     mismatch and the mean ``d_R``. Returns ``curves`` (name → ``step``, ``mismatch``, ``d_R`` lists, for
@@ -365,7 +365,7 @@ def refinement_curves(coll, idx, inits: dict, steps: int, snapshot_steps=()) -> 
 
         chans = [KINDS.index(c) for c in REFINE["channels"]]
         reconstruct(coll.operators[idx][:, chans], coll.base_basis, init=init, steps=steps, callback=record,
-                    progress=False, **REFINE)
+                    progress=False, batch_size=len(idx), device=device, **REFINE)  # one batch: one curve
         curves[name], snapshots[name] = c, snap
     return curves, snapshots
 
@@ -375,7 +375,7 @@ def snapshot_steps(steps: int) -> list[int]:
     return sorted({s for s in (0, 10, 100, 1000) if s <= steps} | {steps})
 
 
-def _refinement_figures(out: Path, coll, net_method, budget: Budget) -> None:
+def _refinement_figures(out: Path, coll, net_method, budget: Budget, device) -> None:
     """``refinement_curves.png`` (mismatch and d_R over the steps, from the base and from the network, on up to 8
     test shapes) and ``refinement_steps.png`` (one shape after 0, 10, 100... steps, coloured by error)."""
     import matplotlib.pyplot as plt
@@ -387,7 +387,7 @@ def _refinement_figures(out: Path, coll, net_method, budget: Budget) -> None:
     shown = snapshot_steps(budget.refine_steps)
     curves, snaps = refinement_curves(coll, idx, {"from the base (geometric)": "base",
                                                   f"from {net_method.name}": net_method.reconstruct(idx)},
-                                      budget.refine_steps, shown)
+                                      budget.refine_steps, shown, device=device)
     fig = plot_refinement_curves(curves)
     fig.savefig(out / "figures" / "refinement_curves.png", dpi=120)
     plt.close(fig)

@@ -48,14 +48,14 @@ class ShapeDifferences(torch.nn.Module):
         The base shape's eigenbasis (``n`` vertices, ``k`` functions); its faces are the shapes' faces.
     kinds : sequence of ``"area"``, ``"conformal"``, ``"extrinsic"``
         The channels, in this order (default: all three, the order of :data:`opnet.KINDS`).
-    dtype, device : where the constants live; :meth:`forward` moves them to the input's dtype and device
-        when they differ, so one module serves float32 and float64, CPU and CUDA.
+    device : where the constants live (kept in float64); :meth:`forward` casts them to the input's dtype and
+        moves them to its device when they differ, so one module serves float32 and float64, CPU and CUDA.
 
     Calling the module on ``X`` ``(B, n, 3)`` gives ``(B, len(kinds), k, k)``, equal in float64 to
     :func:`opnet.shape_differences` of the same coordinates (to ~1e-12 relative).
     """
 
-    def __init__(self, base_basis: Eigenbasis, kinds=KINDS, *, dtype=torch.float64, device=None):
+    def __init__(self, base_basis: Eigenbasis, kinds=KINDS, *, device=None):
         super().__init__()
         if not isinstance(base_basis, Eigenbasis):
             raise TypeError(f"base_basis must be an opnet.Eigenbasis (opnet.eigenbasis(base_mesh, k)), got "
@@ -77,7 +77,8 @@ class ShapeDifferences(torch.nn.Module):
         for name, value in (("faces", faces), ("corner_edge", corner_edge)):
             self.register_buffer(name, torch.tensor(np.asarray(value), dtype=torch.long, device=device), persistent=False)
         for name, value in (("phi", phi), ("edge_phi", phi[edges[:, 0]] - phi[edges[:, 1]]), ("k0_pinv", k0_pinv)):
-            self.register_buffer(name, torch.tensor(np.asarray(value), dtype=dtype, device=device), persistent=False)
+            self.register_buffer(name, torch.tensor(np.asarray(value), dtype=torch.float64, device=device),
+                                 persistent=False)
         self.n_edges = len(edges)
 
     def forward(self, X: torch.Tensor) -> torch.Tensor:
@@ -146,5 +147,4 @@ class ShapeDifferences(torch.nn.Module):
 def shape_differences(base_basis: Eigenbasis, X: torch.Tensor, kinds=KINDS) -> torch.Tensor:
     """Shorthand for ``ShapeDifferences(base_basis, kinds)(X)`` (builds the constants on each call)."""
     X = torch.as_tensor(X)
-    return ShapeDifferences(base_basis, kinds, dtype=X.dtype if X.is_floating_point() else torch.float64,
-                            device=X.device)(X)
+    return ShapeDifferences(base_basis, kinds, device=X.device)(X)

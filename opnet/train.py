@@ -259,7 +259,8 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
         inputs, a displacement from the base, and ``schedule="onecycle"``); the README's variant section.
     schedule : the learning rate over the run: ``"constant"`` (the paper's; default for ``"paper"``) or
         ``"onecycle"`` (default for ``"ours"``): a cosine warm-up from ``lr/25`` to ``lr`` over the first 5 % of
-        the steps, then a cosine decay to ``lr/2.5e5`` at the last step (as ``torch.optim.lr_scheduler.OneCycleLR``).
+        the steps, then a cosine decay towards ``lr/2.5e5`` at the end of the run (as
+        ``torch.optim.lr_scheduler.OneCycleLR``).
         It is a function of the step and the planned number of epochs, so a ``"onecycle"`` run resumes only with
         the same ``epochs``.
     standardize, residual : override the variant's network options one by one (see :class:`opnet.OperatorNet`),

@@ -50,7 +50,7 @@ def test_ground_truth_is_a_fixed_point_and_refinement_helps(base_basis, problem)
 @pytest.mark.parametrize("minimise", [_adam, _lbfgs])
 def test_a_diverging_step_never_reaches_the_result(minimise):
     """An objective that is NaN past a wall (like a collapsing triangle): the result is the best finite iterate."""
-    def objective(X):
+    def objective(X, rows=slice(None)):
         f = ((X - 3.0) ** 2).sum((-1, -2))
         f = torch.where(X[:, 0, 0] > 1.0, torch.full_like(f, float("nan")), f)
         return f, f
@@ -104,3 +104,21 @@ def test_public_name():
     import opnet.geometric
 
     assert opnet.reconstruct is opnet.geometric.reconstruct
+
+
+def test_a_shape_already_matched_costs_nothing_and_does_not_break_the_batch(base_basis, problem):
+    """Operators computed by torch_ops at the start: the gradient is exactly zero (no NaN step, no error)."""
+    from opnet.torch_ops import ShapeDifferences
+
+    X, _ = problem
+    exact = ShapeDifferences(base_basis)(torch.tensor(X)).numpy()
+    R = reconstruct(exact, base_basis, init=X, steps=3, progress=False)
+    np.testing.assert_array_equal(R, X)
+    base = base_basis.mesh.vertices
+    at_base = ShapeDifferences(base_basis)(torch.tensor(base[None])).numpy()
+    mixed = reconstruct(np.concatenate([at_base, exact[1:]]), base_basis, steps=3, progress=False)
+    np.testing.assert_array_equal(mixed[0], base)  # the base matches its own operators: it stays
+    assert np.isfinite(mixed).all()
+    # numpy scalars and "auto" are accepted like elsewhere in opnet
+    reconstruct(exact[:1], base_basis, init=X[:1], steps=1, smoothness=np.float32(1), lr=np.float64(1), device="auto",
+                progress=False)

@@ -228,6 +228,13 @@ def test_variant_ours_standardises_and_decodes_from_the_base(coll, tmp_path):
         train.fit(coll, epochs=6, run_dir=tmp_path / "ours", variant="ours", **FAST)
     with pytest.raises(ValueError, match="variant must be one of"):
         train.fit(coll, epochs=1, variant="mine", **FAST)
+    # a network built by hand must have its statistics set before use; checkpoints without the flag load as set
+    with pytest.raises(RuntimeError, match="set_statistics"):
+        opnet.OperatorNet(net.n_vertices, k=net.k, standardize=True)(ops[:1])
+    state = {k: v for k, v in net.state_dict().items() if k != "statistics_set"}
+    fresh = opnet.OperatorNet(**net.config())
+    fresh.load_state_dict(state)
+    assert torch.equal(fresh(ops[:3]), net(ops[:3]))
     # each part alone (benchmarks/variants.py)
     alone, _ = train.fit(coll, epochs=1, standardize=True, **FAST)
     assert alone.standardize and not alone.residual
