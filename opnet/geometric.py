@@ -200,13 +200,15 @@ def _lbfgs(objective, start: torch.Tensor, steps: int, lr: float, callback, bar,
     The first step moves the vertex with the largest gradient by ``lr`` % of the start's bounding-box
     diagonal; later steps are scaled by the shape's latest valid curvature pair. A trial step is accepted only
     where the objective is finite and decreases enough, so the iterates never diverge. A shape whose line
-    search fails (at a minimum, or at the objective's rounding noise) is frozen: it costs nothing more.
+    search fails forgets its history and retries along the steepest descent; if that fails too (at a minimum,
+    or at the objective's rounding noise) it is frozen and costs nothing more.
     """
     X = start.clone()
     f, mismatch, g = _value_and_grad(objective, X)
     diag = (start.amax(1) - start.amin(1)).norm(dim=-1)  # (b,)
     diag = torch.where(diag > 0, diag, torch.ones_like(diag))
     active = torch.isfinite(f) & (g.abs().amax((-1, -2)) > 0)
+    steepest = torch.zeros_like(active)  # shapes whose last line search failed: retry along -g, history cleared
     pairs: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]] = []
     if callback is not None:
         callback(0, X.clone(), mismatch)
@@ -226,7 +228,7 @@ def _lbfgs(objective, start: torch.Tensor, steps: int, lr: float, callback, bar,
                 r += s * (a - rho * _dot(y, r))[:, None, None]
             d = torch.nan_to_num(-r)
             slope = _dot(g, d)
-            reset = active & ~(slope < 0)  # not a descent direction: fall back to steepest descent
+            reset = active & (steepest | ~(slope < 0))  # not a descent direction: fall back to steepest descent
             d[reset] = -(first[reset, None, None] * g[reset])
             slope = _dot(g, d)
             t = torch.ones_like(f)
@@ -243,7 +245,9 @@ def _lbfgs(objective, start: torch.Tensor, steps: int, lr: float, callback, bar,
                 if not pending.any():
                     break
                 t = torch.where(pending, 0.5 * t, t)
-            active &= ~pending  # no acceptable step: converged to rounding noise, or stuck
+            active &= ~(pending & reset)  # no acceptable step even along -g: converged (rounding noise) or stuck
+            steepest = pending & ~reset
+            pairs = [(s, y, torch.where(steepest, torch.zeros_like(rho), rho)) for s, y, rho in pairs]
             s_k, y_k = X_new - X, g_new - g
             sy = _dot(s_k, y_k)
             curved = sy > 1e-12 * _dot(s_k, s_k).sqrt() * _dot(y_k, y_k).sqrt()
