@@ -30,8 +30,9 @@ from .evaluate import (TEST_SETS, base_shape_method, evaluate, geometric_method,
 from .shape_difference import KINDS
 from .train import CHANNEL_SETS
 
-__all__ = ["reproduce", "run_path", "ablation_table", "results_markdown", "refinement_curves", "snapshot_steps", "Budget", "BUDGETS", "TABLE1", "OURS", "REFINE", "REFINE_SETS", "ABLATION_SETS", "ABLATION_DEPTHS", "PAPER_TABLE1",
-           "PAPER_ABLATION"]
+__all__ = ["reproduce", "run_path", "ablation_table", "results_markdown", "refinement_curves", "snapshot_steps",
+           "Budget", "BUDGETS", "TABLE1", "OURS", "REFINE", "REFINE_SETS", "ABLATION_SETS", "ABLATION_DEPTHS",
+           "PAPER_TABLE1", "PAPER_ABLATION"]
 
 
 @dataclass(frozen=True)
@@ -122,8 +123,8 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
 
     from tqdm.auto import tqdm
 
-    runs = tqdm(total=len(TABLE1) + len(OURS) + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0), desc="reproduce",
-                unit="network", disable=progress is False)
+    runs = tqdm(total=len(TABLE1) + len(OURS) + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0),
+                desc="reproduce", unit="network", disable=progress is False)
 
     def train(channels, depth, epochs, tag, variant="paper"):
         run_dir = run_path(out, tag, channels, depth, variant)
@@ -363,7 +364,7 @@ def refinement_curves(coll, idx, inits: dict, steps: int, snapshot_steps=(), *, 
             if step in snapshot_steps:
                 snap[step] = X[0].cpu().numpy()
 
-        chans = [KINDS.index(c) for c in REFINE["channels"]]
+        chans = [KINDS.index(kind) for kind in REFINE["channels"]]
         reconstruct(coll.operators[idx][:, chans], coll.base_basis, init=init, steps=steps, callback=record,
                     progress=False, batch_size=len(idx), device=device, **REFINE)  # one batch: one curve
         curves[name], snapshots[name] = c, snap
