@@ -22,6 +22,7 @@ import numpy as np
 
 import opnet
 from opnet.evaluate import predict
+from opnet.geometric import truncate_operators
 from opnet.reproduce import run_path
 
 AE = ("area", "extrinsic")
@@ -42,23 +43,6 @@ GRID = [
 SHOWN = (0, 10, 30, 100, 300, 1000)
 #: coarse-to-fine schedules over k: (k, steps) stages, area + extrinsic, smoothness 1
 COARSE_TO_FINE = [[(20, 100), (40, 100), (60, 100)], [(10, 50), (20, 50), (30, 50), (45, 50), (60, 100)]]
-
-
-def truncated_operators(D, basis, channels, m):
-    """Shape differences ``(B, C, m, m)`` against ``basis.truncate(m)`` from those ``D`` against ``basis``.
-
-    ``D = K₀⁺ K`` with ``K`` in the range of ``K₀``, so ``K = K₀ D`` and the truncated operator is
-    ``(K₀)ₘ⁺ (K₀ D)ₘ`` on the leading ``m × m`` blocks (exact for the area and conformal kinds, whose ``K₀`` is
-    diagonal, and for the extrinsic one).
-    """
-    from opnet.inner_products import get_inner_product
-    from opnet.shape_difference import pinv_psd
-
-    out = np.empty((len(D), len(channels), m, m))
-    for c, kind in enumerate(channels):
-        K0 = get_inner_product(kind).project(basis.mesh.vertices, basis.mesh.faces, basis.evecs)
-        out[:, c] = pinv_psd(K0[:m, :m]) @ (K0 @ D[:, c])[:, :m, :m]
-    return out
 
 
 def main(argv=None):
@@ -103,7 +87,7 @@ def main(argv=None):
         for schedule in COARSE_TO_FINE:
             X, t, after = decoded, time.perf_counter(), []
             for m, steps in schedule:
-                X = opnet.reconstruct(truncated_operators(D, coll.base_basis, AE, m), coll.base_basis.truncate(m),
+                X = opnet.reconstruct(truncate_operators(D, coll.base_basis, AE, m), coll.base_basis.truncate(m),
                                       init=X, channels=AE, steps=steps, smoothness=1.0, progress=False)
                 after.append(f"{1e4 * opnet.d_R(gt, X).mean():.3f}")
             seconds = (time.perf_counter() - t) / len(idx)

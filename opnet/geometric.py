@@ -27,12 +27,13 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from .shape_difference import KINDS
+from .inner_products import get_inner_product
+from .shape_difference import KINDS, pinv_psd
 from .spectral import Eigenbasis, cotan_edge_weights
 from .mesh import degenerate_faces, unique_edges
 from .torch_ops import ShapeDifferences
 
-__all__ = ["reconstruct", "operator_mismatch", "OPTIMIZERS"]
+__all__ = ["reconstruct", "truncate_operators", "operator_mismatch", "OPTIMIZERS"]
 
 OPTIMIZERS = ("lbfgs", "adam")
 
@@ -82,6 +83,22 @@ def _as_init(init, base_basis: Eigenbasis, batch: int) -> torch.Tensor:
     return torch.tensor(arr, dtype=torch.float64)
 
 
+def truncate_operators(operators, base_basis: Eigenbasis, channels, m: int) -> np.ndarray:
+    """Shape differences ``(B, C, m, m)`` against ``base_basis.truncate(m)``, from ``operators`` ``(B, C, k, k)``
+    against ``base_basis``.
+
+    ``D = K₀⁺ K`` with ``K`` in the range of ``K₀``, so ``K = K₀ D`` and the truncated operator is
+    ``(K₀)ₘ⁺ (K₀ D)ₘ`` on the leading ``m × m`` blocks: exact, for every kind (tested against the operators
+    computed with the truncated basis).
+    """
+    out = np.empty((len(operators), len(channels), m, m))
+    mesh = base_basis.mesh
+    for c, kind in enumerate(channels):
+        K0 = get_inner_product(kind).project(mesh.vertices, mesh.faces, base_basis.evecs)
+        out[:, c] = pinv_psd(K0[:m, :m]) @ (K0 @ np.asarray(operators, dtype=np.float64)[:, c])[:, :m, :m]
+    return out
+
+
 def _is_real(value) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
@@ -94,7 +111,7 @@ def operator_mismatch(module: ShapeDifferences, X: torch.Tensor, target: torch.T
 
 def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KINDS, steps: int = 100,
                 optimizer: str = "lbfgs", lr: float | None = None, smoothness: float = 1.0, batch_size: int = 64,
-                device="cpu", callback=None, progress: bool | None = None) -> np.ndarray:
+                coarse_to_fine=(), device="cpu", callback=None, progress: bool | None = None) -> np.ndarray:
     """Vertices ``(B, n, 3)`` float64 whose shape differences match ``operators``, on the base's triangulation.
 
     Parameters
@@ -118,6 +135,10 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
     callback : called as ``callback(step, X, mismatch)`` after every step, with ``step`` from 0 (the start),
         ``X`` ``(b, n, 3)`` the current vertices of the batch and ``mismatch`` ``(b,)`` their relative operator
         mismatch (tensors, detached); e.g. to record curves. Batches come one after the other.
+    coarse_to_fine : increasing sizes ``m < k``, e.g. ``(20, 40)``: first match the leading ``m × m`` operators
+        (:func:`truncate_operators`, on ``base_basis.truncate(m)``) for ``steps`` steps at each size in turn, then
+        the full ones for ``steps`` more. Measured on ``val`` (README): as accurate as one stage with as many steps
+        in about half the time. ``callback`` then sees the steps of all stages, numbered on.
     progress : show a progress bar over the steps of all batches (default: on).
 
     Returns
@@ -147,6 +168,24 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
     if not (_is_real(lr) and np.isfinite(lr) and lr > 0):
         raise ValueError(f"lr must be a positive number, got {lr!r}.")
     smoothness, lr = float(smoothness), float(lr)
+    sizes = list(coarse_to_fine)
+    if sizes:
+        if any(not isinstance(m, (int, np.integer)) or isinstance(m, bool) for m in sizes) or \
+                sizes != sorted(set(sizes)) or not 1 <= sizes[0] or sizes[-1] >= base_basis.k:
+            raise ValueError(f"coarse_to_fine must be increasing integer sizes in [1, {base_basis.k - 1}], got "
+                             f"{coarse_to_fine!r}.")
+        X = X_init.numpy()
+        options = dict(channels=channels, steps=steps, optimizer=optimizer, lr=lr, smoothness=smoothness,
+                       batch_size=batch_size, device=device, progress=progress)
+        for stage, m in enumerate([*sizes, base_basis.k]):
+            def staged(step, *args, offset=stage * steps, first=stage == 0):  # a later stage's step 0 repeats
+                if first or step > 0:                                          # the last step of the one before
+                    callback(step + offset, *args)
+
+            ops = target.numpy() if m == base_basis.k else truncate_operators(target.numpy(), base_basis, channels, m)
+            X = reconstruct(ops, base_basis.truncate(m), init=X, callback=None if callback is None else staged,
+                            **options)
+        return X
 
     device = resolve_device(device)
     module = ShapeDifferences(base_basis, channels, device=device)

@@ -122,3 +122,20 @@ def test_a_shape_already_matched_costs_nothing_and_does_not_break_the_batch(base
     # numpy scalars and "auto" are accepted like elsewhere in opnet
     reconstruct(exact[:1], base_basis, init=X[:1], steps=1, smoothness=np.float32(1), lr=np.float64(1), device="auto",
                 progress=False)
+
+
+def test_truncated_operators_are_exact_and_coarse_to_fine_runs(base_basis, problem):
+    from opnet.geometric import truncate_operators
+
+    X, ops = problem
+    for m in (5, 12, 29):
+        np.testing.assert_allclose(truncate_operators(ops, base_basis, opnet.KINDS, m),
+                                   opnet.shape_differences(base_basis.truncate(m), X), atol=1e-10)
+    steps = []
+    R = reconstruct(ops, base_basis, steps=10, coarse_to_fine=(10, 20), progress=False,
+                    callback=lambda step, Xs, m: steps.append(step))
+    assert steps == list(range(31))  # three stages of 10 steps, numbered on
+    assert np.isfinite(R).all() and np.all(opnet.d_R(X, R) < opnet.d_R(X, np.broadcast_to(base_basis.mesh.vertices, X.shape)))
+    for bad in ((20, 10), (0,), (30,), (10.5,)):
+        with pytest.raises(ValueError, match="coarse_to_fine"):
+            reconstruct(ops, base_basis, coarse_to_fine=bad, progress=False)
