@@ -146,27 +146,20 @@ def base_shape_method(collection) -> Method:
 
 
 def geometric_method(collection, channels=KINDS, *, max_shapes: int | None = None, **options) -> Method:
-    """The geometric baseline: :func:`opnet.reconstruct` from the base shape (the paper's SfL / FuncChar row).
+    """The geometric baseline: :func:`opnet.reconstruct` from the base shape (the paper's SfL / FuncChar row),
+    i.e. :func:`refined_method` of :func:`base_shape_method` (its rows' ``d_R_before`` is the base shape's error).
 
     ``options`` go to :func:`opnet.reconstruct` (``steps``, ``smoothness``, ...).
     """
-    from .geometric import reconstruct
-
-    channels = tuple(channels)
-    chans = _select(channels)
-
-    def run(idx):
-        return reconstruct(collection.operators[idx][:, chans], collection.base_basis, init="base", channels=channels,
-                           progress=False, **options)
-
-    return Method(f"Geometric ({channel_label(channels)})", run, channels, max_shapes=max_shapes)
+    return refined_method(base_shape_method(collection), collection, channels, max_shapes=max_shapes,
+                          name=f"Geometric ({channel_label(channels)})", **options)
 
 
 def refined_method(method: Method, collection, channels=KINDS, *, max_shapes: int | None = None,
-                   **options) -> Method:
+                   name: str | None = None, **options) -> Method:
     """``method`` followed by :func:`opnet.reconstruct` from its output: its vertices move until their operators
     (``channels``) match the input's. ``options`` go to :func:`opnet.reconstruct`. Its rows also hold
-    ``d_R_before``, the mean ``d_R`` of ``method`` on the same shapes."""
+    ``d_R_before``, the mean ``d_R`` of ``method`` on the same shapes. ``name``: default ``"<method> + refinement"``."""
     from .geometric import reconstruct
 
     channels = tuple(channels)
@@ -178,7 +171,7 @@ def refined_method(method: Method, collection, channels=KINDS, *, max_shapes: in
         return reconstruct(collection.operators[idx][:, chans], collection.base_basis, init=init, channels=channels,
                            progress=False, **options)
 
-    out = Method(f"{method.name} + refinement", run, channels, method.depth, max_shapes=max_shapes)
+    out = Method(name or f"{method.name} + refinement", run, channels, method.depth, max_shapes=max_shapes)
     return out
 
 

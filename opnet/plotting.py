@@ -7,8 +7,8 @@ import numpy as np
 
 from .mesh import Mesh
 
-__all__ = ["headless", "use_static_backend", "to_pyvista", "plot_meshes", "plot_operators", "plot_reconstructions", "plot_history",
-           "plot_ablation"]
+__all__ = ["headless", "use_static_backend", "to_pyvista", "plot_meshes", "plot_operators", "plot_reconstructions",
+           "plot_history", "plot_refinement_curves", "plot_ablation"]
 
 
 def headless() -> None:

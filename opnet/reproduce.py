@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ._files import atomic_write
-from .evaluate import (TEST_SETS, base_shape_method, evaluate, geometric_method, nearest_neighbour_method,
+from .evaluate import (TEST_SETS, _select, base_shape_method, evaluate, geometric_method, nearest_neighbour_method,
                        operatornet_method, refined_method, test_set_indices)
 from .shape_difference import KINDS
 from .train import CHANNEL_SETS
@@ -364,8 +364,7 @@ def refinement_curves(coll, idx, inits: dict, steps: int, snapshot_steps=(), *, 
             if step in snapshot_steps:
                 snap[step] = X[0].cpu().numpy()
 
-        chans = [KINDS.index(kind) for kind in REFINE["channels"]]
-        reconstruct(coll.operators[idx][:, chans], coll.base_basis, init=init, steps=steps, callback=record,
+        reconstruct(coll.operators[idx][:, _select(REFINE["channels"])], coll.base_basis, init=init, steps=steps, callback=record,
                     progress=False, batch_size=len(idx), device=device, **REFINE)  # one batch: one curve
         curves[name], snapshots[name] = c, snap
     return curves, snapshots
