@@ -1,6 +1,7 @@
 # Two entry points, each creating the virtual environment (.venv) when it is missing:
 #   make run    executes the notebooks at a small preset into build/ (notebooks + HTML)
 #   make test   runs the unit tests and the notebooks (nbval)
+# Both set OPNET_STATIC_WIDGETS=1: no kernel drives the widgets there, so notebooks show pictures instead.
 #   make reproduce PRESET=default   Table 1 + ablation into build/reproduce-$(PRESET) (results.json/md, figures)
 PYTHON ?= python3
 VENV   ?= .venv
@@ -22,12 +23,13 @@ $(STAMP): pyproject.toml
 
 run: $(STAMP)
 	mkdir -p build/notebooks build/html
-	OPNET_PRESET=$(PRESET) $(PY) -m jupyter nbconvert --to notebook --execute notebooks/[0-9]*.ipynb --output-dir build/notebooks
+	OPNET_PRESET=$(PRESET) OPNET_STATIC_WIDGETS=1 $(PY) -m jupyter nbconvert --to notebook --execute notebooks/[0-9]*.ipynb \
+		--ExecutePreprocessor.store_widget_state=False --output-dir build/notebooks
 	$(PY) -m jupyter nbconvert --to html build/notebooks/*.ipynb --output-dir build/html
 	@echo "executed notebooks: build/notebooks/  HTML: build/html/"
 
 test: $(STAMP)
-	OPNET_PRESET=quick $(PY) -m pytest
+	OPNET_PRESET=quick OPNET_STATIC_WIDGETS=1 $(PY) -m pytest
 
 reproduce: $(STAMP)
 	$(PY) -m opnet reproduce --preset $(PRESET) --out build/reproduce-$(PRESET)

@@ -16,9 +16,11 @@ Public API::
     rows  = opnet.reproduce.reproduce("quick", "reproduce-quick")   # Table 1 + ablation -> results.json/md
     X     = opnet.reconstruct(operators, base_basis, init="base" | vertices)  # operator matching (refinement)
     Dt    = opnet.torch_ops.ShapeDifferences(base_basis)(X_tensor)            # differentiable in X (torch)
+    alg   = opnet.apps.operatornet_algebra(net, collection)   # .interpolate(i, j, t), .analogy(a, b, c) as shapes
+    opnet.widgets.show(opnet.widgets.interpolation_explorer(collection, [alg]))   # JupyterLab widgets
 
-The modules ``train``, ``evaluate``, ``reproduce``, ``model``, ``torch_ops`` and ``geometric`` (home of
-``reconstruct``) import torch, so they load on first use.
+The modules ``train``, ``evaluate``, ``reproduce``, ``model``, ``torch_ops``, ``geometric`` (home of
+``reconstruct``), ``apps`` and ``widgets`` use torch or the notebook stack, so they load on first use.
 """
 from . import data
 from .algebra import analogy, interpolate, log_difference, relative_difference
@@ -51,10 +53,10 @@ __all__ = [
     "interpolate", "analogy", "relative_difference", "log_difference",
     "kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume",
     "OperatorNet", "rigid_alignment_loss", "reconstruct", "model", "train", "evaluate", "reproduce", "torch_ops",
-    "geometric",
+    "geometric", "apps", "widgets",
 ]
 
-_TORCH_MODULES = ("model", "train", "evaluate", "reproduce", "torch_ops", "geometric")
+_TORCH_MODULES = ("model", "train", "evaluate", "reproduce", "torch_ops", "geometric", "apps", "widgets")
 
 
 def __getattr__(name):  # import torch only when the network is asked for

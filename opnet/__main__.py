@@ -35,9 +35,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="collection size: quick (hundreds of shapes), default (thousands), paper (≈20 000)")
     t.add_argument("--resolution", default=None, help="humans only: 1k (default), 2k or 5k vertices")
     t.add_argument("--data-seed", type=int, default=0, help="seed of the generated collection (default 0)")
-    t.add_argument("--channels", default=",".join(KINDS),
+    t.add_argument("--channels", default=None,
                    help="input operators, comma-separated subset of area,conformal,extrinsic, or a short name "
-                        "(A+E+C, Area, Ext, Conf, A+E, A+C, E+C); default all three")
+                        "(A+E+C, Area, Ext, Conf, A+E, A+C, E+C); default all three (OperatorNet only)")
     t.add_argument("--depth", type=int, default=1, choices=[1, 2, 3, 4], help="convolution layers in the encoder (1)")
     t.add_argument("--epochs", type=_positive, default=50, help="passes over the training split (50); more continues a run")
     t.add_argument("--batch-size", type=_positive, default=32, help="shapes per step, global across processes (32)")
@@ -51,6 +51,10 @@ def _parser() -> argparse.ArgumentParser:
                         "one-cycle learning rate (README, 'our variant')")
     t.add_argument("--schedule", default=None, choices=["constant", "onecycle"],
                    help="learning rate over the run (default: constant for paper, onecycle for ours)")
+    t.add_argument("--architecture", default="operatornet", choices=["operatornet", "pointnet"],
+                   help="operatornet (default), or pointnet: the PointNet autoencoder baseline, which reads the "
+                        "coordinates (same decoder, loss and checkpoints; --channels/--variant do not apply)")
+    t.add_argument("--points", type=_positive, default=256, help="pointnet: vertices the encoder reads (256)")
     t.add_argument("--device", default="auto", help="auto (CUDA if present), cpu, cuda, cuda:N")
     t.add_argument("--run-dir", required=True, help="folder for config.json, latest.pt, best.pt, history.json")
     t.add_argument("--restart", action="store_true", help="replace the run in --run-dir instead of resuming it")
@@ -80,6 +84,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--device", default="auto", help="auto, cpu, cuda")
     r.add_argument("--no-ablation", action="store_true", help="only Table 1")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    r.add_argument("--no-applications", action="store_true",
+                   help="skip the PointNet autoencoder and the analogy / interpolation benchmarks")
     r.add_argument("--no-refine", action="store_true",
                    help="skip the operator-matching rows (geometric baseline, + refinement; seconds per shape)")
     r.add_argument("--data-root", default=None, help="where collections are cached")
@@ -153,7 +159,7 @@ def _run(args) -> int:
         from .train import fit, parse_channels
 
         try:
-            channels = parse_channels(args.channels)
+            channels = None if args.channels is None else parse_channels(args.channels)
         except ValueError as exc:
             _parser().error(str(exc))
         distributed = _init_distributed(args.device)
@@ -167,7 +173,7 @@ def _run(args) -> int:
                              batch_size=args.batch_size, lr=args.lr, seed=args.seed, device=args.device,
                              run_dir=args.run_dir, resume=not args.restart, hidden=args.hidden,
                              subtract_identity=not args.no_subtract_identity, variant=args.variant,
-                             schedule=args.schedule)
+                             schedule=args.schedule, architecture=args.architecture, n_points=args.points)
         finally:
             if distributed:
                 import torch
@@ -179,7 +185,8 @@ def _run(args) -> int:
         return 0
 
     if args.command == "evaluate":
-        from .evaluate import TEST_SETS, base_shape_method, evaluate, nearest_neighbour_method, operatornet_method
+        from .evaluate import (TEST_SETS, base_shape_method, evaluate, nearest_neighbour_method, operatornet_method,
+                               pointnet_method)
         from .train import _checkpoint_path, _model_from_checkpoint, _read_checkpoint, resolve_device
 
         path = _checkpoint_path(args.run_dir)
@@ -193,8 +200,11 @@ def _run(args) -> int:
             _parser().error(f"{args.run_dir} was trained on {d['name']!r}, not a generated collection: pass its "
                             "manifest with --collection PATH.json")
         net = _model_from_checkpoint(ckpt, path, coll, device=args.device)
-        rows = evaluate(coll, [operatornet_method(net, coll), nearest_neighbour_method(coll, net.channels),
-                               base_shape_method(coll)], TEST_SETS)
+        if hasattr(net, "channels"):
+            methods = [operatornet_method(net, coll), nearest_neighbour_method(coll, net.channels)]
+        else:  # the PointNet autoencoder
+            methods = [pointnet_method(net, coll), nearest_neighbour_method(coll, KINDS)]
+        rows = evaluate(coll, methods + [base_shape_method(coll)], TEST_SETS)
         print(_table(rows))
         if args.json:
             with open(args.json, "w") as f:
@@ -204,7 +214,8 @@ def _run(args) -> int:
     from .reproduce import reproduce
 
     rows = reproduce(args.preset, args.out, device=args.device, ablation=not args.no_ablation,
-                     figures=not args.no_figures, refine=not args.no_refine, data_root=args.data_root,
+                     figures=not args.no_figures, refine=not args.no_refine,
+                     applications=not args.no_applications, data_root=args.data_root,
                      progress=True)
     print(_table([r for r in rows if r["table"] == "table1"]))
     print(f"results: {args.out or f'reproduce-{args.preset}'}/results.md")

@@ -4,6 +4,8 @@ Methods are :class:`Method` objects: a name and a function from shape indices of
 reconstructed vertices. Three kinds are provided:
 
 - :func:`operatornet_method`: a trained :class:`opnet.OperatorNet` decoding the shapes' operators;
+- :func:`pointnet_method`: the PointNet autoencoder (:class:`opnet.model.PointNetAutoencoder`) encoding and
+  decoding the shapes' coordinates (the paper's baseline of section 7);
 - :func:`nearest_neighbour_method`: the training shape whose operators (the same channels, Frobenius
   norm) are nearest (the paper's "NN" row);
 - :func:`base_shape_method`: the base shape itself, whatever the input (the "do nothing" floor);
@@ -30,7 +32,7 @@ from .mesh import edge_face_counts
 from .metrics import d_E, d_R, d_V, rigid_align
 from .shape_difference import KINDS
 
-__all__ = ["TEST_SETS", "Method", "test_set_indices", "channel_label", "predict", "operatornet_method",
+__all__ = ["TEST_SETS", "Method", "test_set_indices", "channel_label", "predict", "operatornet_method", "pointnet_method",
            "nearest_neighbour", "nearest_neighbour_method", "base_shape_method", "geometric_method", "refined_method",
            "shape_errors", "vertex_errors",
            "evaluate"]
@@ -81,7 +83,10 @@ class Method:
 
 
 def predict(net, operators, *, batch_size: int = 256) -> np.ndarray:
-    """Decode operators ``(N, C, k, k)`` (the network's channels, in its order) → vertices ``(N, n, 3)`` float64."""
+    """Run a network on its inputs in batches, without gradient → vertices ``(N, n, 3)`` float64.
+
+    ``operators``: ``(N, C, k, k)`` (the network's channels, in its order) for OperatorNet, coordinates
+    ``(N, m, 3)`` for the PointNet autoencoder."""
     import torch
 
     device = next(net.parameters()).device
@@ -105,6 +110,11 @@ def operatornet_method(net, collection, name: str | None = None) -> Method:
     return Method(name, lambda idx: predict(net, collection.operators[idx][:, chans]), tuple(net.channels), net.depth)
 
 
+def pointnet_method(net, collection, name: str = "PointNet AE") -> Method:
+    """The PointNet autoencoder reconstructing the collection's shapes from their own coordinates."""
+    return Method(name, lambda idx: predict(net, collection.vertices[idx]))
+
+
 class _OperatorIndex:
     """The ``train`` shapes' stacked operators of some channels, for nearest-neighbour queries."""
 
@@ -115,12 +125,16 @@ class _OperatorIndex:
         self.a2 = np.einsum("ij,ij->i", self.A, self.A)
 
     def query(self, indices, chunk: int = 512) -> np.ndarray:
+        """Nearest ``train`` shape of each of the collection's shapes ``indices``."""
         out = np.empty(len(indices), dtype=np.int64)
         for s in range(0, len(indices), chunk):
-            B = self.collection.operators[np.asarray(indices[s:s + chunk])][:, self.chans]
-            dist = self.a2[None, :] - 2 * B.reshape(len(B), -1).astype(np.float64) @ self.A.T  # + |b|², the same for all
-            out[s:s + chunk] = self.train[np.argmin(dist, axis=1)]
+            out[s:s + chunk] = self.nearest(self.collection.operators[np.asarray(indices[s:s + chunk])][:, self.chans])
         return out
+
+    def nearest(self, operators) -> np.ndarray:
+        """Nearest ``train`` shape (collection index) of each of ``operators`` ``(B, len(channels), k, k)``."""
+        B = np.asarray(operators, dtype=np.float64).reshape(len(operators), -1)
+        return self.train[np.argmin(self.a2[None, :] - 2 * B @ self.A.T, axis=1)]  # |a - b|² up to |b|²
 
 
 def nearest_neighbour(collection, indices, channels=KINDS, *, chunk: int = 512) -> np.ndarray:

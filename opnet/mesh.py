@@ -14,13 +14,35 @@ import potpourri3d as pp3d
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["Mesh", "MeshError", "load_mesh", "unique_edges", "edge_face_counts", "face_areas", "degenerate_faces"]
+__all__ = ["Mesh", "MeshError", "load_mesh", "unique_edges", "edge_face_counts", "face_areas", "degenerate_faces",
+           "farthest_first", "furthest_vertices"]
 
 _LOADABLE = (".ply", ".obj", ".off", ".stl")
 
 
 class MeshError(ValueError):
     """A mesh that the operators cannot be built on; the message says how to fix it."""
+
+
+def farthest_first(distance_to, n: int) -> np.ndarray:
+    """Greedy farthest-first traversal: indices of up to ``n`` distinct items, starting from item 0.
+
+    ``distance_to(i)`` returns the distances ``(N,)`` from item ``i`` to every item; each new item is the one
+    furthest from those already chosen. Stops early when only copies of chosen items remain (distance 0).
+    """
+    chosen = [0]
+    nearest = np.asarray(distance_to(0), dtype=np.float64)
+    while len(chosen) < min(n, len(nearest)) and nearest.max() > 0:
+        nxt = int(np.argmax(nearest))
+        chosen.append(nxt)
+        nearest = np.minimum(nearest, distance_to(nxt))
+    return np.array(chosen)
+
+
+def furthest_vertices(vertices, n: int) -> np.ndarray:
+    """Indices of ``n`` vertices ``(n_vertices, 3)`` spread over the shape by farthest-first sampling (Euclidean)."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    return farthest_first(lambda i: np.linalg.norm(vertices - vertices[i], axis=1), n)
 
 
 def face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

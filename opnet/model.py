@@ -1,8 +1,11 @@
-"""OperatorNet (section 5 of the paper): shape differences in, vertex coordinates out, and its loss (eq. 9).
+"""OperatorNet (section 5 of the paper): shape differences in, vertex coordinates out, and its loss (eq. 9);
+the PointNet autoencoder the paper compares with (section 7, Appendix C).
 
-The network reads ``C`` shape-difference matrices ``(C, k, k)`` as image channels: a shallow
+OperatorNet reads ``C`` shape-difference matrices ``(C, k, k)`` as image channels: a shallow
 convolutional encoder (3 × 3 convolutions, stride 2, 8 filters doubling per layer, ReLU; one layer by
 default, the paper's best in its ablation, Appendix B) and a dense decoder (1024, 1024, n · 3).
+:class:`PointNetAutoencoder` reads the coordinates themselves with a PointNet encoder and decodes them with
+the same dense decoder. :data:`ARCHITECTURES` names both for :func:`build_model` and the trainer.
 """
 from __future__ import annotations
 
@@ -12,7 +15,8 @@ from torch import nn
 
 from .shape_difference import KINDS
 
-__all__ = ["OperatorNet", "rigid_alignment_loss", "kabsch_torch", "VARIANTS"]
+__all__ = ["OperatorNet", "PointNetAutoencoder", "build_model", "rigid_alignment_loss", "kabsch_torch", "VARIANTS",
+           "ARCHITECTURES"]
 
 #: Named network settings: the paper's architecture (fed ``D − I``), and this project's variant.
 VARIANTS = {"paper": dict(), "ours": dict(standardize=True, residual=True)}
@@ -69,11 +73,7 @@ class OperatorNet(nn.Module):
             layers += [nn.Conv2d(width, 8 * 2**i, kernel_size=3, stride=2, padding=1), nn.ReLU()]
             width, size = 8 * 2**i, (size + 1) // 2
         self.encoder = nn.Sequential(*layers, nn.Flatten())
-        self.decoder = nn.Sequential(
-            nn.Linear(width * size * size, hidden), nn.ReLU(),
-            nn.Linear(hidden, hidden), nn.ReLU(),
-            nn.Linear(hidden, 3 * n_vertices),
-        )
+        self.decoder = dense_decoder(width * size * size, hidden, n_vertices)
 
     def forward(self, operators: torch.Tensor) -> torch.Tensor:
         expected = (len(self.channels), self.k, self.k)
@@ -114,6 +114,95 @@ class OperatorNet(nn.Module):
         return dict(n_vertices=self.n_vertices, k=self.k, channels=list(self.channels), depth=self.depth,
                     hidden=self.hidden, subtract_identity=self.subtract_identity, standardize=self.standardize,
                     residual=self.residual)
+
+
+def dense_decoder(in_features: int, hidden: int, n_vertices: int) -> nn.Sequential:
+    """OperatorNet's decoder: ``in_features`` → ``hidden`` → ``hidden`` → ``3 n`` (ReLU between); reshape to ``(n, 3)``."""
+    return nn.Sequential(nn.Linear(in_features, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(),
+                         nn.Linear(hidden, 3 * n_vertices))
+
+
+class PointNetAutoencoder(nn.Module):
+    """Coordinates ``(B, n, 3)`` → a latent code ``(B, latent)`` → coordinates ``(B, n, 3)``: the paper's baseline.
+
+    The encoder is PointNet without its spatial transformer (the paper's better variant): a shared per-point
+    MLP ``3 → 64 → 128 → latent`` (ReLU) and a max over the points, so the code does not depend on the order of
+    the points. It reads ``n_points`` of the ``n`` vertices, the same ones for every shape (buffer
+    ``point_index``, spread over the base shape by :meth:`choose_points`; all vertices when ``n_points`` is
+    ``None``): the per-point MLP's cost grows with the points, and a few hundred cover a body.
+    The decoder is OperatorNet's (:func:`dense_decoder`, ``latent → hidden → hidden → 3 n``), so the two
+    networks differ only in what they read: coordinates here, shape differences there. Its algebra is linear in
+    the code: interpolation ``(1 − t) z_0 + t z_1`` and analogy ``z_X = z_C + z_B − z_A`` (:mod:`opnet.apps`).
+
+    Parameters
+    ----------
+    n_vertices : number of vertices ``n`` of the shapes read and written.
+    n_points : vertices the encoder reads (``None``: all).
+    latent : size of the code (1024 in PointNet).
+    hidden : width of the decoder's two hidden layers (1024, as OperatorNet's).
+    """
+
+    def __init__(self, n_vertices: int, n_points: int | None = None, latent: int = 1024, hidden: int = 1024):
+        super().__init__()
+        n_points = n_vertices if n_points is None else n_points
+        if n_vertices < 4 or not 1 <= n_points <= n_vertices or latent < 1 or hidden < 1:
+            raise ValueError(f"need n_vertices >= 4, 1 <= n_points <= n_vertices, latent >= 1 and hidden >= 1, got "
+                             f"{n_vertices}, {n_points}, {latent}, {hidden}.")
+        self.n_vertices, self.n_points, self.latent, self.hidden = n_vertices, n_points, latent, hidden
+        self.register_buffer("point_index", torch.linspace(0, n_vertices - 1, n_points).round().long())
+        self.point_mlp = nn.Sequential(nn.Linear(3, 64), nn.ReLU(), nn.Linear(64, 128), nn.ReLU(),
+                                       nn.Linear(128, latent), nn.ReLU())
+        self.decoder = dense_decoder(latent, hidden, n_vertices)
+
+    def choose_points(self, base_vertices) -> "PointNetAutoencoder":
+        """Read the ``n_points`` vertices spread furthest apart on the base shape ``(n, 3)``
+        (:func:`opnet.mesh.furthest_vertices`); :func:`opnet.train.fit` calls it. Returns ``self``."""
+        from .mesh import furthest_vertices
+
+        if tuple(np.shape(base_vertices)) != (self.n_vertices, 3):
+            raise ValueError(f"base_vertices must be ({self.n_vertices}, 3), got {np.shape(base_vertices)}.")
+        index = np.sort(furthest_vertices(base_vertices, self.n_points))
+        if len(index) < self.n_points:
+            raise ValueError(f"the base shape has only {len(index)} distinct vertices, fewer than n_points={self.n_points}.")
+        self.point_index.copy_(torch.from_numpy(index))
+        return self
+
+    def _check(self, vertices: torch.Tensor) -> None:
+        if vertices.ndim != 3 or tuple(vertices.shape[1:]) != (self.n_vertices, 3):
+            raise ValueError(f"PointNetAutoencoder expects vertices of shape (B, {self.n_vertices}, 3), got "
+                             f"{tuple(vertices.shape)}.")
+
+    def encode(self, vertices: torch.Tensor) -> torch.Tensor:
+        """Vertices ``(B, n, 3)`` → codes ``(B, latent)`` (from the ``n_points`` read)."""
+        self._check(vertices)
+        return self.point_mlp(vertices[:, self.point_index]).amax(dim=1)
+
+    def decode(self, codes: torch.Tensor) -> torch.Tensor:
+        """Codes ``(B, latent)`` → vertices ``(B, n, 3)``."""
+        if codes.ndim != 2 or codes.shape[1] != self.latent:
+            raise ValueError(f"PointNetAutoencoder decodes codes of shape (B, {self.latent}), got {tuple(codes.shape)}.")
+        return self.decoder(codes).view(-1, self.n_vertices, 3)
+
+    def forward(self, vertices: torch.Tensor) -> torch.Tensor:
+        return self.decode(self.encode(vertices))
+
+    def config(self) -> dict:
+        """The constructor's arguments and ``architecture="pointnet"`` (stored in checkpoints; :func:`build_model`)."""
+        return dict(architecture="pointnet", n_vertices=self.n_vertices, n_points=self.n_points, latent=self.latent,
+                    hidden=self.hidden)
+
+
+#: The networks the trainer knows, by the name stored in a checkpoint's config (``architecture``), and what they read.
+ARCHITECTURES = {"operatornet": (OperatorNet, "operators"), "pointnet": (PointNetAutoencoder, "vertices")}
+
+
+def build_model(config: dict) -> nn.Module:
+    """A network from its :meth:`config` (``architecture`` defaults to ``"operatornet"``, as in older checkpoints)."""
+    config = dict(config)
+    architecture = config.pop("architecture", "operatornet")
+    if architecture not in ARCHITECTURES:
+        raise ValueError(f"unknown architecture {architecture!r}; use one of {list(ARCHITECTURES)}.")
+    return ARCHITECTURES[architecture][0](**config)
 
 
 def _statistics_were_set(state_dict, prefix, *args) -> None:

@@ -8,7 +8,7 @@ import numpy as np
 from .mesh import Mesh
 
 __all__ = ["headless", "use_static_backend", "to_pyvista", "plot_meshes", "plot_operators", "plot_reconstructions",
-           "plot_history", "plot_refinement_curves", "plot_ablation"]
+           "plot_history", "plot_refinement_curves", "plot_ablation", "plot_interpolations", "plot_analogies"]
 
 
 def headless() -> None:
@@ -149,6 +149,74 @@ def plot_reconstructions(gt, reconstructions: dict, faces, *, titles=None, clim=
     ncols = 1 + len(reconstructions)
     return plot_meshes(meshes, scalars, labels, cmap="magma_r", clim=clim, ncols=ncols, camera=camera, zoom=zoom,
                        window_size=(330 * ncols, 360 * len(gt)))
+
+
+def _aligned_errors(shapes, truth):
+    """``shapes`` rigidly aligned onto ``truth`` (both ``(N, n, 3)``) and their per-vertex distances ``(N, n)``."""
+    from .metrics import rigid_align
+
+    truth = np.asarray(truth, dtype=np.float64)
+    aligned = rigid_align(np.asarray(shapes, np.float64), truth)
+    return aligned, np.linalg.norm(aligned - truth, axis=-1)
+
+
+def plot_interpolations(paths: dict, faces, t, *, truth=None, columns: int = 6, clim=None, camera="xz", zoom=1.2):
+    """Interpolation strips: one row per method, ``columns`` evenly spaced steps of the path from left to right.
+
+    ``paths``: name → ``(T, n, 3)`` shapes at parameters ``t`` ``(T,)``. With ``truth`` ``(T, n, 3)`` (the true
+    in-between shapes) a first row shows it and every method's shapes are aligned onto it and coloured by their
+    distance to it (shared range ``clim``, default 0 to the largest error shown; metres → mm in the captions).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    cols = np.unique(np.linspace(0, len(t) - 1, min(columns, len(t))).round().astype(int))
+    rows = ({"ground truth": truth} if truth is not None else {}) | dict(paths)
+    meshes, scalars, titles, errors = [], [], [], {}
+    if truth is not None:
+        errors = {name: _aligned_errors(np.asarray(p)[cols], np.asarray(truth)[cols]) for name, p in paths.items()}
+    vmax = max((float(e.max()) for _, e in errors.values()), default=1.0)
+    clim = clim or (0.0, vmax)
+    for name, p in rows.items():
+        for j, c in enumerate(cols):
+            if name in errors:
+                meshes.append((errors[name][0][j], faces))
+                scalars.append(errors[name][1][j])
+            else:
+                meshes.append((np.asarray(p)[c], faces))
+                scalars.append(None)
+            head = f"{name}\n" if j == 0 else "\n"
+            err = f", {1000 * errors[name][1][j].mean():.1f} mm" if name in errors and clim[1] < 1 else ""
+            titles.append(f"{head}t = {t[c]:.2f}{err}")
+    return plot_meshes(meshes, scalars, titles, cmap="magma_r", clim=clim, ncols=len(cols), camera=camera, zoom=zoom,
+                       window_size=(240 * len(cols), 300 * len(rows)))
+
+
+def plot_analogies(A, B, C, results: dict, faces, *, truth=None, clim=None, camera="xz", zoom=1.2):
+    """Analogy grids ``A : B :: C : X``: one row per question, its three shapes, the true ``X`` (optional) and each
+    method's ``X``, coloured by its distance to the true one when given (as :func:`plot_reconstructions`).
+
+    ``A``, ``B``, ``C``: ``(N, n, 3)``; ``results``: name → ``(N, n, 3)``; ``truth``: ``(N, n, 3)`` or ``None``.
+    """
+    A, B, C = (np.asarray(x, np.float64) for x in (A, B, C))
+    errors = {name: _aligned_errors(x, truth) for name, x in results.items()} if truth is not None else {}
+    vmax = max((float(e.max()) for _, e in errors.values()), default=1.0)
+    clim = clim or (0.0, vmax)
+    meshes, scalars, titles = [], [], []
+    for i in range(len(A)):
+        shown = [("A", A[i], None), ("B", B[i], None), ("C", C[i], None)]
+        shown += [("true X", np.asarray(truth)[i], None)] if truth is not None else []
+        for name, X in results.items():
+            if name in errors:
+                shown.append((f"{name}: {1000 * errors[name][1][i].mean():.1f} mm" if clim[1] < 1 else name,
+                              errors[name][0][i], errors[name][1][i]))
+            else:
+                shown.append((name, np.asarray(X)[i], None))
+        for title, V, err in shown:
+            meshes.append((V, faces))
+            scalars.append(err)
+            titles.append(title if i == 0 or err is not None else "")
+    ncols = len(meshes) // len(A)
+    return plot_meshes(meshes, scalars, titles, cmap="magma_r", clim=clim, ncols=ncols, camera=camera, zoom=zoom,
+                       window_size=(240 * ncols, 300 * len(A)))
 
 
 def plot_history(histories: dict, *, ax=None):

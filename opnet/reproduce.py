@@ -9,9 +9,12 @@ and writes
   "d_E"`` (means; ``*_median`` too), ``"n_shapes", "epochs", "train_seconds", "preset", "device"}``
   with ``d_R`` in m² (the paper reports it ×10⁻⁴);
 - ``OUT/results.md``: Table 1 and the ablation laid out like the paper's, with its numbers beside ours;
-- ``OUT/figures/``: training curves, the ablation heat map, and reconstructions coloured by per-vertex error.
+- ``OUT/figures/``: training curves, the ablation heat map, reconstructions coloured by per-vertex error, and the
+  applications' interpolation strips and analogy grids.
 
-Table 1 and ``results.*`` are written as soon as its three networks are trained, before the ablation.
+With ``applications=True`` (default) it also trains the PointNet autoencoder (a Table 1 row) and runs the
+ground-truth analogy and interpolation benchmarks of :mod:`opnet.apps` (rows with ``"table"`` ``"analogy"`` and
+``"interpolation"``). Table 1, the applications and ``results.*`` are written before the ablation.
 """
 from __future__ import annotations
 
@@ -26,12 +29,12 @@ import numpy as np
 
 from ._files import atomic_write
 from .evaluate import (TEST_SETS, _select, base_shape_method, evaluate, geometric_method, nearest_neighbour_method,
-                       operatornet_method, refined_method, test_set_indices)
+                       operatornet_method, pointnet_method, refined_method, test_set_indices)
 from .shape_difference import KINDS
 from .train import CHANNEL_SETS
 
-__all__ = ["reproduce", "run_path", "ablation_table", "results_markdown", "refinement_curves", "snapshot_steps",
-           "Budget", "BUDGETS", "TABLE1", "OURS", "REFINE", "REFINE_SETS", "ABLATION_SETS", "ABLATION_DEPTHS",
+__all__ = ["reproduce", "run_path", "table1_networks", "application_methods", "applications_rows", "applications_markdown", "ablation_table", "results_markdown", "refinement_curves", "snapshot_steps",
+           "Budget", "BUDGETS", "TABLE1", "OURS", "POINTNET", "REFINE", "REFINE_SETS", "ABLATION_SETS", "ABLATION_DEPTHS",
            "PAPER_TABLE1", "PAPER_ABLATION"]
 
 
@@ -46,10 +49,14 @@ class Budget:
     hidden: int = 1024
     refine_steps: int = 300
     refine_shapes: int = 80
+    pointnet_epochs: int = 60
+    analogies: int = 100  # analogy questions per kind
+    paths: int = 10  # interpolation paths per kind
 
 
 BUDGETS = {
-    "quick": Budget(epochs=80, ablation_epochs=6, batch_size=16, refine_steps=30, refine_shapes=12),
+    "quick": Budget(epochs=80, ablation_epochs=6, batch_size=16, refine_steps=30, refine_shapes=12, pointnet_epochs=40,
+                    analogies=24, paths=4),
     "default": Budget(epochs=60, ablation_epochs=12),
     "paper": Budget(epochs=100, ablation_epochs=25),
 }
@@ -67,6 +74,9 @@ OURS = {"OperatorNet ours (Int+Ext)": KINDS}
 #: test sets they are evaluated on (at most ``Budget.refine_shapes`` shapes of each).
 REFINE = dict(channels=("area", "extrinsic"), optimizer="lbfgs", smoothness=1.0)
 REFINE_SETS = ("test", "test_subjects")
+
+#: Table 1's name of the PointNet autoencoder (:class:`opnet.model.PointNetAutoencoder`), trained with ``applications``.
+POINTNET = "PointNet AE"
 
 #: The paper's Table 1 on DFAUST (d_R ×10⁻⁴, d_V, d_E), for reference beside ours.
 PAPER_TABLE1 = {"OperatorNet (Int+Ext)": (1.11, 0.014, 0.045), "OperatorNet (Int)": (2.41, 0.013, 0.046),
@@ -87,7 +97,7 @@ def _machine(device) -> str:
 
 
 def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool = True, figures: bool = True,
-              refine: bool = True, budget: Budget | None = None, data_root=None,
+              refine: bool = True, applications: bool = True, budget: Budget | None = None, data_root=None,
               progress: bool | None = None) -> list[dict]:
     """Reproduce the paper's Table 1 and ablation on the generated humans at ``preset``; returns the rows.
 
@@ -101,13 +111,16 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     refine : also evaluate the operator-matching rows: the geometric baseline and OperatorNet + refinement
         (:func:`opnet.reconstruct` with :data:`REFINE`, ``budget.refine_steps`` steps, on at most
         ``budget.refine_shapes`` shapes of each of :data:`REFINE_SETS`, evenly spaced: they take seconds per shape).
+    applications : also train the PointNet autoencoder (Table 1's "PointNet AE" row) and run the analogy and
+        interpolation benchmarks (:func:`applications`; ``budget.analogies`` questions and ``budget.paths`` paths
+        per kind).
     budget : training settings; default ``BUDGETS[preset]``.
     data_root : where collections are cached (default ``opnet.data.default_root()``).
     progress : ``None`` (default): one progress bar over the networks; ``True``: also a bar per network over
         its epochs (the command line's choice); ``False``: none.
     """
     from .data import load_collection
-    from .train import fit, resolve_device
+    from .train import resolve_device
 
     if preset not in BUDGETS:
         raise ValueError(f"unknown preset {preset!r}; use one of {list(BUDGETS)}.")
@@ -123,26 +136,14 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
 
     from tqdm.auto import tqdm
 
-    runs = tqdm(total=len(TABLE1) + len(OURS) + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0),
+    runs = tqdm(total=len(TABLE1) + len(OURS) + bool(applications)
+                + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0),
                 desc="reproduce", unit="network", disable=progress is False)
 
-    def train(channels, depth, epochs, tag, variant="paper"):
-        run_dir = run_path(out, tag, channels, depth, variant)
-        runs.set_postfix_str(run_dir.name)
-        net, history = fit(coll, channels=channels, depth=depth, epochs=epochs, batch_size=budget.batch_size,
-                           lr=budget.lr, hidden=budget.hidden, device=device, run_dir=run_dir, variant=variant,
-                           progress=progress is True)
-        runs.update(1)
-        trained_on = json.loads((run_dir / "config.json").read_text())["device"]  # a reused run may come from elsewhere
-        return net, history, dict(epochs=len(history), train_seconds=round(sum(e["seconds"] for e in history), 1),
-                                  device=trained_on)
-
-    nets, histories, devices = {}, {}, {}
-    for name, channels in TABLE1.items():
-        nets[name], histories[name], devices[name] = train(channels, 1, budget.epochs, "table1")
-    for name, channels in OURS.items():
-        nets[name], histories[name], devices[name] = train(channels, 1, budget.epochs, "table1", "ours")
+    nets, histories, devices = table1_networks(coll, out, budget, pointnet=applications, device=device,
+                                               progress=progress, bar=runs)
     methods = [operatornet_method(nets[name], coll, name) for name in (*TABLE1, *OURS)]
+    methods += [pointnet_method(nets[POINTNET], coll, POINTNET)] if applications else []
     for m in methods:
         m.info = dict(table="table1", **devices[m.name])
     baselines = [nearest_neighbour_method(coll, KINDS), base_shape_method(coll)]
@@ -160,14 +161,20 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
                    eval_subset=int(len(coll.eval_subset)))
     _write(out, rows, context, time.perf_counter() - t_start)
     if figures:
-        _figures(out, coll, methods[0], baselines[0], {k.split(" ", 1)[1]: h for k, h in histories.items()})
+        _figures(out, coll, methods[0], baselines[0], {k.split(" ", 1)[1] if k.startswith("OperatorNet") else k: h
+                                                       for k, h in histories.items()})
         if refine:
             _refinement_figures(out, coll, methods[0], budget, device)
+    if applications:
+        algebras = application_methods(coll, nets, budget, refine=refine, device=device)
+        rows += applications_rows(coll, algebras, budget, out=out / "figures" if figures else None, progress=progress)
+        _write(out, rows, context, time.perf_counter() - t_start)
 
     if ablation:
         for depth in ABLATION_DEPTHS:
             for label, channels in ABLATION_SETS.items():
-                net, _, run_info = train(channels, depth, budget.ablation_epochs, "ablation")
+                net, _, run_info = _train(coll, out, budget, channels, depth, budget.ablation_epochs, "ablation",
+                                          device=device, progress=progress, bar=runs)
                 m = operatornet_method(net, coll, f"OperatorNet ({label}) depth {depth}")
                 m.info = dict(table="ablation", **run_info)
                 rows += evaluate(coll, [m], ("test",), extra=info)
@@ -182,14 +189,102 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     return rows
 
 
+def _train(coll, out, budget: Budget, channels, depth, epochs, tag, variant="paper", *, device, progress, bar=None):
+    """Train (or load, when finished) one network of the reproduction in its run directory (:func:`run_path`)."""
+    from .train import fit
+
+    run_dir = run_path(out, tag, channels, depth, variant)
+    if bar is not None:
+        bar.set_postfix_str(run_dir.name)
+    options = dict(architecture="pointnet") if variant == "pointnet" else dict(channels=channels, depth=depth,
+                                                                                variant=variant)
+    net, history = fit(coll, epochs=epochs, batch_size=budget.batch_size, lr=budget.lr, hidden=budget.hidden,
+                       device=device, run_dir=run_dir, progress=progress is True, **options)
+    if bar is not None:
+        bar.update(1)
+    trained_on = json.loads((run_dir / "config.json").read_text())["device"]  # a reused run may come from elsewhere
+    return net, history, dict(epochs=len(history), train_seconds=round(sum(e["seconds"] for e in history), 1),
+                              device=trained_on)
+
+
+def table1_networks(coll, out, budget: Budget, *, pointnet: bool = True, device="cpu", progress=None,
+                    bar=None) -> tuple[dict, dict, dict]:
+    """Table 1's networks (:data:`TABLE1`, :data:`OURS` and, with ``pointnet``, :data:`POINTNET`), trained in
+    ``out/runs/`` or loaded when already trained there: dicts name → network, name → history, name → run info
+    (``epochs``, ``train_seconds``, ``device``). :func:`reproduce` and the notebooks share them this way."""
+    nets, histories, info = {}, {}, {}
+    todo = [(name, channels, "paper", budget.epochs) for name, channels in TABLE1.items()]
+    todo += [(name, channels, "ours", budget.epochs) for name, channels in OURS.items()]
+    todo += [(POINTNET, None, "pointnet", budget.pointnet_epochs)] if pointnet else []
+    for name, channels, variant, epochs in todo:
+        nets[name], histories[name], info[name] = _train(coll, out, budget, channels, 1, epochs, "table1", variant,
+                                                         device=device, progress=progress, bar=bar)
+    return nets, histories, info
+
+
 def run_path(out, table: str, channels, depth: int = 1, variant: str = "paper") -> Path:
     """The run directory :func:`reproduce` uses for one network: ``out/runs/<table>-<channels>-d<depth>``.
 
     ``table`` is ``"table1"`` or ``"ablation"``; ``channels`` a set of kinds (short name ``A+E+C``, ``Ext``...);
-    ``variant="ours"`` (:func:`opnet.train.fit`) adds ``-ours``.
+    ``variant="ours"`` (:func:`opnet.train.fit`) adds ``-ours``; ``variant="pointnet"`` names the PointNet
+    autoencoder's run, ``out/runs/<table>-pointnet`` (``channels`` and ``depth`` are then ignored).
     """
+    if variant == "pointnet":
+        return Path(out) / "runs" / f"{table}-pointnet"
     short = next(k for k, v in ABLATION_SETS.items() if set(v) == set(channels))
     return Path(out) / "runs" / f"{table}-{short}-d{depth}{'' if variant == 'paper' else '-' + variant}"
+
+
+def application_methods(coll, nets: dict, budget: Budget, *, refine: bool = True, device="cpu") -> list:
+    """The applications' methods (:class:`opnet.apps.ShapeAlgebra`): Table 1's OperatorNet (Int+Ext) with the
+    multiplicative and the linear algebra, our variant, the first + refinement (:data:`REFINE`, at most
+    ``budget.refine_shapes`` shapes per kind), the PointNet AE and NN. ``nets``: Table 1's name → network."""
+    from . import apps
+
+    paper, ours = nets["OperatorNet (Int+Ext)"], nets[next(iter(OURS))]
+    methods = [apps.operatornet_algebra(paper, coll), apps.operatornet_algebra(paper, coll, scheme="linear"),
+               apps.operatornet_algebra(ours, coll, name="OperatorNet ours (mult.)")]
+    if refine:
+        methods.append(apps.operatornet_algebra(paper, coll, refine=dict(REFINE, steps=budget.refine_steps, device=device),
+                                                max_shapes=budget.refine_shapes))
+    return methods + [apps.pointnet_algebra(nets[POINTNET], coll), apps.nearest_neighbour_algebra(coll)]
+
+
+def applications_rows(coll, methods, budget: Budget, *, out=None, progress=None, seed: int = 0) -> list[dict]:
+    """Run the ground-truth analogy (``budget.analogies`` questions per kind) and interpolation (``budget.paths``
+    paths of 11 steps per kind) benchmarks of :mod:`opnet.apps`; rows get ``table`` ``"analogy"`` or
+    ``"interpolation"``. With ``out``, also writes ``interpolation_<kind>.png`` and ``analogy_<kind>.png`` there."""
+    from . import apps
+
+    quads = [apps.analogy_quadruples(coll, kind, budget.analogies, seed=seed) for kind in apps.ANALOGY_KINDS]
+    paths = [apps.interpolation_paths(coll, kind, budget.paths, seed=seed) for kind in apps.PATH_KINDS]
+    rows = [dict(r, table="analogy") for r in apps.analogy_benchmark(coll, methods, quads, progress=progress)]
+    rows += [dict(r, table="interpolation") for r in apps.interpolation_benchmark(coll, methods, paths,
+                                                                                   progress=progress)]
+    if out is not None:
+        _application_figures(Path(out), coll, methods, quads, paths)
+    return [dict(r, preset=coll.meta.get("preset")) for r in rows]
+
+
+def _application_figures(out: Path, coll, methods, quads, paths) -> None:
+    from .metrics import d_R
+    from .plotting import headless, plot_analogies, plot_interpolations
+
+    headless()
+    out.mkdir(parents=True, exist_ok=True)
+    for P in paths:
+        i = int(np.argmax(d_R(P.truth[:, 0], P.truth[:, -1])))  # the path that moves most
+        plotter = plot_interpolations({m.name: m.interpolate(P.truth[i, 0], P.truth[i, -1], P.t) for m in methods},
+                                      coll.faces, P.t, truth=P.truth[i])
+        plotter.screenshot(str(out / f"interpolation_{P.kind}.png"))
+        plotter.close()
+    shown = [m for m in methods if m.max_shapes is None]
+    for Q in quads:
+        q = min(3, len(Q))
+        plotter = plot_analogies(Q.A[:q], Q.B[:q], Q.C[:q], {m.name: m.analogy(Q.A[:q], Q.B[:q], Q.C[:q]) for m in shown},
+                                 coll.faces, truth=Q.X[:q])
+        plotter.screenshot(str(out / f"analogy_{Q.kind}.png"))
+        plotter.close()
 
 
 def ablation_table(rows) -> np.ndarray:
@@ -284,7 +379,55 @@ def results_markdown(rows: list[dict], context: dict) -> str:
             lines += ["", f"All three operators give the best column in {best_col:.0%} of the depths (the paper: 100 %); "
                       f"depth 1 is {'the best' if np.argmin(done) == 0 else 'not the best'} for A+E+C "
                       f"({', '.join(_fmt(v) for v in done)} for depths 1–4)."]
+    lines += applications_markdown(rows)
     return "\n".join(lines) + "\n"
+
+
+_KIND_NAMES = {"analogy": {"pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)", "body": "body transfer (a,p):(b,p)::(a,q):(b,q)"},
+               "interpolation": {"pose": "one subject, pose to pose", "body": "one pose, subject to subject"}}
+
+
+def applications_markdown(rows: list[dict]) -> list[str]:
+    """The applications' section of ``results.md`` (lines): the analogy and interpolation tables and their targets."""
+    ana = [r for r in rows if r.get("table") == "analogy"]
+    itp = [r for r in rows if r.get("table") == "interpolation"]
+    if not ana and not itp:
+        return []
+    lines = ["", "## Applications: analogy and interpolation against ground truth", "",
+             "Subjects from `test_subjects`, poses from the `test` sequences; the true shapes are generated from the "
+             "generator's parameters (`opnet.apps`). d_R ×10⁻⁴ (median in brackets). *direct*: the same method on "
+             "X given X itself (its floor: the rest is the algebra's error)."]
+    for kind in dict.fromkeys(r["kind"] for r in ana):
+        part = [r for r in ana if r["kind"] == kind]
+        lines += ["", f"**Analogy, {_KIND_NAMES['analogy'].get(kind, kind)}** ({part[0]['n']} questions)", "",
+                  "| method | n | d_R | d_V | d_E | direct d_R |", "|---|---|---|---|---|---|"]
+        for r in part:
+            before = f" (before: {_fmt(r['d_R_before'], 1e4)})" if "d_R_before" in r else ""
+            lines.append(f"| {r['method']} | {r['n']} | {_fmt(r['d_R'], 1e4)} ({_fmt(r['d_R_median'], 1e4)}){before} | "
+                         f"{_fmt(r['d_V'])} | {_fmt(r['d_E'])} | {_fmt(r['d_R_direct'], 1e4)} |")
+    for kind in dict.fromkeys(r["kind"] for r in itp):
+        part = [r for r in itp if r["kind"] == kind]
+        lines += ["", f"**Interpolation, {_KIND_NAMES['interpolation'].get(kind, kind)}** ({part[0]['n_paths']} paths of "
+                  f"{part[0]['steps']} steps)", "",
+                  "| method | paths | endpoints d_R | in-between d_R | edge distortion | smoothness (worst) |",
+                  "|---|---|---|---|---|---|"]
+        for r in part:
+            lines.append(f"| {r['method']} | {r['n_paths']} | {_fmt(r['endpoint_d_R'], 1e4)} | {_fmt(r['d_R_truth'], 1e4)} | "
+                         f"{_fmt(r['distortion'])} | {_fmt(r['smoothness'])} ({_fmt(r['smoothness_max'])}) |")
+    if itp:
+        lines += ["", f"Edge distortion: the largest mean relative edge-length error against the nearer true endpoint; "
+                  f"smoothness: the largest step over the path length ({1 / (itp[0]['steps'] - 1):.2f} for even steps)."]
+    targets = []
+    for kind in dict.fromkeys(r["kind"] for r in ana):
+        get = {r["method"]: r["d_R"] for r in ana if r["kind"] == kind}
+        ours = get.get("OperatorNet (mult.)")
+        others = {m: get[m] for m in (POINTNET, "Nearest neighbour") if m in get}
+        if ours is not None and others:
+            met = all(v > ours for v in others.values())
+            ratios = ", ".join(f"{m} / OperatorNet = {v / ours:.2f}" for m, v in others.items())
+            targets.append(f"- analogy, {kind}: {ratios} (target: OperatorNet (mult.) beats both at `default`): "
+                           f"{'met' if met else 'missed'}.")
+    return lines + (["", "**Targets**", ""] + targets if targets else [])
 
 
 def _targets(t1: list[dict]) -> list[str]:

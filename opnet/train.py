@@ -40,7 +40,7 @@ import torch
 from tqdm.auto import tqdm
 
 from ._files import atomic_write, remove_stale_tmp
-from .model import VARIANTS, OperatorNet, rigid_alignment_loss
+from .model import ARCHITECTURES, VARIANTS, OperatorNet, build_model, rigid_alignment_loss
 from .shape_difference import KINDS
 
 __all__ = ["fit", "load_model", "read_history", "collection_fingerprint", "parse_channels", "resolve_device",
@@ -115,8 +115,10 @@ def _data_config(collection) -> dict:
 
 def _describe(config: dict) -> str:
     d, m = config["data"], config["model"]
-    return (f"{d['name']}/{d['preset']}/{d['resolution']} seed {d['seed']} (data {d['fingerprint'][:12]}), "
-            f"channels {','.join(m['channels'])}, depth {m['depth']}")
+    data = f"{d['name']}/{d['preset']}/{d['resolution']} seed {d['seed']} (data {d['fingerprint'][:12]})"
+    if m.get("architecture", "operatornet") != "operatornet":
+        return f"{data}, {m['architecture']}"
+    return f"{data}, channels {','.join(m['channels'])}, depth {m['depth']}"
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -162,8 +164,11 @@ def read_history(run_dir) -> list[dict]:
     return _read_checkpoint(Path(run_dir) / "latest.pt")["history"]
 
 
-def load_model(path, collection=None, *, channels=None, device="cpu") -> OperatorNet:
+def load_model(path, collection=None, *, channels=None, device="cpu"):
     """The trained network stored at ``path``: a run directory (its ``best.pt``) or a ``.pt`` checkpoint.
+
+    An :class:`opnet.OperatorNet`, or an :class:`opnet.model.PointNetAutoencoder` for a run of
+    ``architecture="pointnet"``.
 
     With ``collection`` and/or ``channels``, raises :class:`CheckpointError` naming both sides when the
     checkpoint was trained on other data (another fingerprint) or other input channels. The network is
@@ -174,9 +179,12 @@ def load_model(path, collection=None, *, channels=None, device="cpu") -> Operato
                                  channels=channels, device=device)
 
 
-def _model_from_checkpoint(ckpt: dict, path, collection=None, *, channels=None, device="cpu") -> OperatorNet:
+def _model_from_checkpoint(ckpt: dict, path, collection=None, *, channels=None, device="cpu"):
     """:func:`load_model` on a checkpoint already read (``path`` names it in errors)."""
     config = ckpt["config"]
+    if channels is not None and "channels" not in config["model"]:
+        raise CheckpointError(f"{path} holds a {config['model'].get('architecture')} network, which reads no "
+                              "operators: load it without channels=.")
     if channels is not None and tuple(parse_channels(channels)) != tuple(config["model"]["channels"]):
         raise CheckpointError(f"{path} was trained on channels {','.join(config['model']['channels'])}, not "
                               f"{','.join(parse_channels(channels))}; load the run trained on those channels.")
@@ -186,7 +194,7 @@ def _model_from_checkpoint(ckpt: dict, path, collection=None, *, channels=None, 
             got = dict(config, data=data)
             raise CheckpointError(f"{path} was trained on {_describe(config)}, but this collection is "
                                   f"{_describe(got)}; use a model trained on this collection.")
-    net = OperatorNet(**config["model"])
+    net = build_model(config["model"])
     net.load_state_dict(ckpt["model"])
     return net.to(resolve_device(device)).eval()
 
@@ -211,14 +219,14 @@ def _shard(batch: np.ndarray, rank: int, world: int) -> tuple[np.ndarray, np.nda
 
 
 @torch.no_grad()
-def _val_d_R(net, operators, vertices, batch_size=256) -> float:
+def _val_d_R(net, inputs, vertices, batch_size=256) -> float:
     net.eval()
     total = 0.0
-    for s in range(0, len(operators), batch_size):
-        pred = net(operators[s:s + batch_size]).double()
+    for s in range(0, len(inputs), batch_size):
+        pred = net(inputs[s:s + batch_size]).double()
         total += rigid_alignment_loss(pred, vertices[s:s + batch_size].double(), reduction="none").sum().item()
     net.train()
-    return total / len(operators)
+    return total / len(inputs)
 
 
 def _check_positive(name, value, kind=int):
@@ -227,20 +235,21 @@ def _check_positive(name, value, kind=int):
         raise ValueError(f"{name} must be a positive {'integer' if kind is int else 'number'}, got {value!r}.")
 
 
-def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_size: int = 32, lr: float = 1e-3,
+def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_size: int = 32, lr: float = 1e-3,
         seed: int = 0, device="auto", run_dir=None, resume: bool = True, progress: bool | None = None,
         hidden: int = 1024, subtract_identity: bool = True, variant: str = "paper",
         schedule: str | None = None, standardize: bool | None = None,
-        residual: bool | None = None) -> tuple[OperatorNet, list[dict]]:
-    """Train OperatorNet on the ``train`` split of ``collection``; returns the best network on ``val`` and the history.
+        residual: bool | None = None, architecture: str = "operatornet", n_points: int = 256) -> tuple[OperatorNet, list[dict]]:
+    """Train OperatorNet (or the PointNet autoencoder) on the ``train`` split of ``collection``; returns the best
+    network on ``val`` and the history.
 
     Parameters
     ----------
     collection : opnet.data.Collection
         Shapes with their operators (``"train"`` and ``"val"`` splits are used; the test splits never).
-    channels : kinds or str
+    channels : kinds or str, optional
         Input operators: a subset of ``("area", "conformal", "extrinsic")``, ``"area,extrinsic"`` or a short
-        name of :data:`CHANNEL_SETS` (``"A+E+C"``, ``"Ext"``, ...).
+        name of :data:`CHANNEL_SETS` (``"A+E+C"``, ``"Ext"``, ...). Default: all three.
     depth : encoder depth, 1 to 4 (the paper's ablation; 1 is its model).
     epochs : passes over the training split. Resuming with more epochs continues the run.
     batch_size : shapes per optimiser step (the global batch under ``torchrun``).
@@ -265,6 +274,12 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
         the same ``epochs``.
     standardize, residual : override the variant's network options one by one (see :class:`opnet.OperatorNet`),
         e.g. to measure each part of ``"ours"`` alone (``benchmarks/variants.py``).
+    architecture : ``"operatornet"`` (default) or ``"pointnet"``: the PointNet autoencoder
+        (:class:`opnet.model.PointNetAutoencoder`), which reads the shapes' coordinates instead of their operators
+        and is trained with the same loss, checkpoints and resume (``channels``, ``depth`` and the variant's
+        options do not apply to it; ``hidden`` and ``schedule`` do).
+    n_points : how many vertices the PointNet encoder reads (spread over the base shape; 256 by default, the
+        ``PointNetAutoencoder``'s ``n_points``). The README's PointNet section measures the choice.
 
     Returns
     -------
@@ -276,13 +291,19 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
     TrainingError : the loss became NaN or infinite (the message names the epoch and the last good checkpoint).
     CheckpointError : ``run_dir`` holds a run of other data or settings, or an unreadable checkpoint.
     """
-    channels = parse_channels(channels)
+    if architecture not in ARCHITECTURES:
+        raise ValueError(f"architecture must be one of {list(ARCHITECTURES)}, got {architecture!r}.")
+    pointnet = architecture == "pointnet"
+    if pointnet and (channels is not None or variant != "paper" or standardize is not None or residual is not None):
+        raise ValueError("architecture='pointnet' reads coordinates, not operators: channels, variant, standardize and "
+                         "residual are OperatorNet's options; leave them unset.")
+    channels = parse_channels(KINDS if channels is None else channels)
     if variant not in VARIANTS:
         raise ValueError(f"variant must be one of {list(VARIANTS)}, got {variant!r}.")
     schedule = _VARIANT_SCHEDULE[variant] if schedule is None else schedule
     if schedule not in SCHEDULES:
         raise ValueError(f"schedule must be one of {SCHEDULES}, got {schedule!r}.")
-    for name, value in (("epochs", epochs), ("batch_size", batch_size), ("hidden", hidden)):
+    for name, value in (("epochs", epochs), ("batch_size", batch_size), ("hidden", hidden), ("n_points", n_points)):
         _check_positive(name, value)
     _check_positive("lr", lr, float)
     device = resolve_device(device)
@@ -300,19 +321,26 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
             raise ValueError(f"the collection's {name} hold NaN or infinite values in {bad.sum()} train/val shapes "
                              f"(first: shape {np.concatenate([train_idx, val_idx])[bad][0]}); repair or drop them.")
 
-    def tensors(idx):
-        ops = np.ascontiguousarray(collection.operators[idx][:, chans], dtype=np.float32)
-        return (torch.from_numpy(ops).to(device),
-                torch.from_numpy(np.ascontiguousarray(collection.vertices[idx], dtype=np.float32)).to(device))
+    def tensors(idx):  # (network input, target vertices)
+        X = torch.from_numpy(np.ascontiguousarray(collection.vertices[idx], dtype=np.float32)).to(device)
+        if pointnet:
+            return X, X
+        return torch.from_numpy(np.ascontiguousarray(collection.operators[idx][:, chans], dtype=np.float32)).to(device), X
 
-    (train_ops, train_X), (val_ops, val_X) = tensors(train_idx), tensors(val_idx)
+    (train_in, train_X), (val_in, val_X) = tensors(train_idx), tensors(val_idx)
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(seed)
         options = {**VARIANTS[variant], **{k: v for k, v in (("standardize", standardize), ("residual", residual))
                                            if v is not None}}
-        net = OperatorNet(collection.vertices.shape[1], collection.base_basis.k, channels, depth, hidden,
-                          subtract_identity, **options)
-    net.set_statistics(train_ops.cpu(), collection.base_basis.mesh.vertices).to(device)
+        if pointnet:
+            n = collection.vertices.shape[1]
+            net = build_model(dict(architecture=architecture, n_vertices=n, n_points=min(n_points, n), hidden=hidden))
+            net.choose_points(collection.base_basis.mesh.vertices)
+        else:
+            net = OperatorNet(collection.vertices.shape[1], collection.base_basis.k, channels, depth, hidden,
+                              subtract_identity, **options)
+            net.set_statistics(train_in.cpu(), collection.base_basis.mesh.vertices)
+    net.to(device)
     optimizer = torch.optim.Adam(net.parameters(), lr=lr)
     config = dict(data=_data_config(collection), model=net.config(),
                   train=dict(epochs=epochs, batch_size=batch_size, lr=lr, seed=seed, schedule=schedule,
@@ -352,7 +380,7 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
     n = len(train_idx)
     steps_per_epoch = -(-n // batch_size)
     step, total_steps = start * steps_per_epoch, epochs * steps_per_epoch
-    bar = tqdm(total=epochs, initial=min(start, epochs), desc=f"train {'+'.join(c[:4] for c in channels)} d{depth}",
+    bar = tqdm(total=epochs, initial=min(start, epochs), desc="train pointnet" if pointnet else f"train {'+'.join(c[:4] for c in channels)} d{depth}",
                unit="epoch", disable=(progress is False) or rank != 0)
     try:
         for epoch in range(start + 1, epochs + 1):
@@ -362,7 +390,7 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
             for s in range(0, n, batch_size):
                 batch = order[s:s + batch_size]
                 part, weight = _shard(batch, rank, world)
-                pred = model(train_ops[part])
+                pred = model(train_in[part])
                 finite = torch.isfinite(pred).all()
                 # a non-finite output is replaced by zeros for Kabsch; the step is refused below in any case
                 per_shape = rigid_alignment_loss(torch.where(finite, pred, torch.zeros_like(pred)), train_X[part],
@@ -386,7 +414,7 @@ def fit(collection, *, channels=KINDS, depth: int = 1, epochs: int = 50, batch_s
             if world > 1:
                 torch.distributed.all_reduce(loss_sum)
             train_loss = loss_sum.item() / n
-            val = _val_d_R(net, val_ops, val_X)
+            val = _val_d_R(net, val_in, val_X)
             if not (math.isfinite(val) and math.isfinite(train_loss)):  # e.g. the last step made the weights NaN
                 _diverged(epoch, f"the validation d_R ({val})", history, start, run_dir, lr)
             history.append(dict(epoch=epoch, train_loss=train_loss, val_d_R=val, seconds=time.perf_counter() - t0))
@@ -428,8 +456,8 @@ def _check_same_run(saved: dict, wanted: dict, run_dir: Path) -> None:
     fix = "choose another run_dir, or pass resume=False (CLI: --restart) to replace it."
     for part in ("data", "model", "train"):
         old, new = dict(saved.get(part, {})), dict(wanted[part])
-        if part == "model":  # runs saved before an option existed were trained with its default
-            old = {**_model_defaults(), **old}
+        if part == "model" and old.get("architecture", "operatornet") == "operatornet":
+            old = {**_model_defaults(), **old}  # runs saved before an option existed were trained with its default
         if part == "train":
             old = {"schedule": "constant", **old}  # runs saved before schedules existed
             if new.get("schedule") == "constant":  # a constant learning rate may go on for more epochs

@@ -1,9 +1,21 @@
-"""Shared small meshes: a capsule base and smooth deformations of it, all in 1-1 correspondence."""
+"""Shared small meshes (a capsule base and smooth deformations of it, all in 1-1 correspondence), and the quick
+humans generated once per session."""
 import numpy as np
 import pytest
 
 import opnet
 from opnet.data import toy
+
+
+@pytest.fixture(scope="session")
+def root(tmp_path_factory):
+    """A data root for the generated collections of this test session."""
+    return tmp_path_factory.mktemp("collections")
+
+
+@pytest.fixture(scope="session")
+def humans(root):
+    return opnet.data.load_collection("humans", "quick", root, progress=False)
 
 
 @pytest.fixture(scope="session")

@@ -7,14 +7,7 @@ import opnet
 from opnet.data import bodies
 
 
-@pytest.fixture(scope="module")
-def root(tmp_path_factory):
-    return tmp_path_factory.mktemp("collections")
-
-
-@pytest.fixture(scope="module")
-def humans(root):
-    return opnet.data.load_collection("humans", "quick", root, progress=False)
+# the fixtures `root` and `humans` (the quick humans, built once per test session) are in conftest.py
 
 
 def test_api_fields(humans):

@@ -82,7 +82,7 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch):
     tiny = tiny_collection("humans")
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: tiny)
     budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, refine_steps=5, refine_shapes=3)
-    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False)
+    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, applications=False)
     saved = json.loads((tmp_path / "results.json").read_text())
     assert saved == json.loads(json.dumps(rows))
     t1 = [r for r in saved if r["table"] == "table1"]
@@ -109,5 +109,26 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch):
     # a second call trains nothing more: every run is finished
     mtimes = {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
     assert len(mtimes) == 32
-    reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, figures=False)
+    reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, figures=False,
+                        applications=False)
     assert mtimes == {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
+
+
+def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatch):
+    monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: humans)
+    budget = reproduce.Budget(epochs=1, ablation_epochs=1, batch_size=64, hidden=16, refine_steps=2, refine_shapes=4,
+                              pointnet_epochs=1, analogies=5, paths=2)
+    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False)
+    assert {r["method"] for r in rows if r["table"] == "table1"} >= {reproduce.POINTNET}
+    assert (tmp_path / "runs" / "table1-pointnet" / "best.pt").is_file()
+    names = ["OperatorNet (mult.)", "OperatorNet (linear)", "OperatorNet ours (mult.)",
+             "OperatorNet (mult.) + refinement", reproduce.POINTNET, "Nearest neighbour"]
+    ana = [r for r in rows if r["table"] == "analogy"]
+    assert [(r["method"], r["kind"]) for r in ana] == [(m, k) for m in names for k in ("pose", "body")]
+    assert all(r["n"] == (4 if "refinement" in r["method"] else 5) and np.isfinite(r["d_R"]) for r in ana)
+    itp = [r for r in rows if r["table"] == "interpolation"]
+    assert [(r["method"], r["kind"]) for r in itp] == [(m, k) for k in ("pose", "body") for m in ["Ground truth", *names]]
+    md = (tmp_path / "results.md").read_text()
+    assert "## Applications" in md and "PointNet AE / OperatorNet" in md and "smoothness" in md
+    for name in ("interpolation_pose", "interpolation_body", "analogy_pose", "analogy_body"):
+        assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000

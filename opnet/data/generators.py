@@ -15,7 +15,7 @@ from . import bodies
 from .collections import assemble
 from .splits import make_splits
 
-__all__ = ["PRESETS", "GENERATORS", "GENERATOR_VERSION"]
+__all__ = ["PRESETS", "GENERATORS", "GENERATOR_VERSION", "generate_shapes", "interpolate_controls"]
 
 # Bump when a generator changes what it produces: cached collections then no longer match.
 GENERATOR_VERSION = "2"
@@ -79,23 +79,31 @@ def _build(preset: str, seed: int, meta: dict, progress, *, motions, sequence, r
     return assemble(vertices, faces, base, split, sub, params, meta, progress=progress, fps_vertices=fps_vertices)
 
 
+def _evaluator(name: str, resolution: str):
+    """``evaluate(subjects (N, 6), controls (N, ...)) → vertices (N, n, 3)`` of a named collection."""
+    if name == "humans":
+        return lambda subj, poses: bodies.human_vertices(subj, poses, resolution)
+    return {"heads": bodies.head_vertices, "hands": bodies.hand_vertices}[name]
+
+
 def _humans(preset, resolution, seed, meta, progress=None):
-    one_k = None if resolution == "1k" else (lambda subj, poses: bodies.human_vertices(subj, poses, "1k"))
+    one_k = None if resolution == "1k" else _evaluator("humans", "1k")
     return _build(preset, seed, meta, progress, motions=bodies.ACTIONS, sequence=bodies.action_poses,
-                  random=bodies.random_poses, evaluate=lambda subj, poses: bodies.human_vertices(subj, poses, resolution),
+                  random=bodies.random_poses, evaluate=_evaluator("humans", resolution),
                   rest=bodies.rest_pose(), faces=bodies.human_faces(resolution), reference=one_k)
 
 
 def _heads(preset, resolution, seed, meta, progress=None):
     return _build(preset, seed, meta, progress, motions=tuple(bodies.HEAD_EXPRESSIONS),
                   sequence=bodies.expression_sequence, random=bodies.random_expressions,
-                  evaluate=bodies.head_vertices, rest=np.zeros(len(bodies.FACIAL_ACTIONS)), faces=bodies.head_faces())
+                  evaluate=_evaluator("heads", resolution), rest=np.zeros(len(bodies.FACIAL_ACTIONS)),
+                  faces=bodies.head_faces())
 
 
 def _hands(preset, resolution, seed, meta, progress=None):
     return _build(preset, seed, meta, progress, motions=tuple(bodies.HAND_GESTURES),
                   sequence=bodies.gesture_sequence, random=bodies.random_hand_poses,
-                  evaluate=bodies.hand_vertices, rest=bodies.hand_poses({}, 1)[0], faces=bodies.hand_faces())
+                  evaluate=_evaluator("hands", resolution), rest=bodies.hand_poses({}, 1)[0], faces=bodies.hand_faces())
 
 
 #: name -> (generator, resolutions it offers; the first is the default)
@@ -104,3 +112,50 @@ GENERATORS = {
     "heads": (_heads, ("native",)),
     "hands": (_hands, ("native",)),
 }
+
+
+def _generated(collection) -> str:
+    name = collection.meta.get("name")
+    if name not in GENERATORS or not {"phenotypes", "controls"} <= set(collection.params):
+        raise ValueError(f"this collection ({name!r}) was not made by a generator of {sorted(GENERATORS)}, so its "
+                         "shapes cannot be generated anew; use opnet.data.load_collection('humans' | 'heads' | 'hands').")
+    return name
+
+
+def generate_shapes(collection, phenotypes, controls) -> np.ndarray:
+    """New shapes of a generated collection's kind, on its mesh: vertices ``(N, n, 3)`` float64 (metres).
+
+    ``phenotypes`` ``(N, 6)`` and ``controls`` ``(N, ...)`` are generator parameters like the collection's own
+    ``params["phenotypes"]`` and ``params["controls"]`` (body or hand poses ``(bones, 4, 4)``, or facial
+    expression weights): mixing one shape's body with another's pose gives a shape the collection does not hold,
+    with its ground truth (the analogy benchmark of :mod:`opnet.apps`).
+    """
+    name = _generated(collection)
+    phenotypes, controls = np.asarray(phenotypes, np.float64), np.asarray(controls, np.float64)
+    expected = collection.params["controls"].shape[1:]
+    if phenotypes.ndim != 2 or controls.shape[1:] != expected or len(controls) != len(phenotypes):
+        raise ValueError(f"phenotypes must be (N, {len(bodies.PHENOTYPES)}) and controls (N, {', '.join(map(str, expected))}) "
+                         f"with the same N, got {phenotypes.shape} and {controls.shape}.")
+    return _evaluator(name, collection.meta.get("resolution"))(phenotypes, controls)
+
+
+def interpolate_controls(collection, c0, c1, t) -> np.ndarray:
+    """The generator's in-between controls ``(len(t), ...)`` of two shapes' controls ``c0``, ``c1`` at ``t`` ∈ [0, 1].
+
+    Poses (humans, hands): each bone's local rotation is interpolated along the shortest arc (slerp, so a joint
+    turns at a constant rate about a fixed axis). Expressions (heads): the blendshape weights linearly.
+    """
+    _generated(collection)
+    c0, c1 = np.asarray(c0, np.float64), np.asarray(c1, np.float64)
+    t = np.atleast_1d(np.asarray(t, np.float64))
+    if c0.ndim == 1:  # expression weights
+        return (1 - t)[:, None] * c0 + t[:, None] * c1
+    from scipy.spatial.transform import Rotation
+
+    r0 = Rotation.from_matrix(c0[:, :3, :3])
+    step = (r0.inv() * Rotation.from_matrix(c1[:, :3, :3])).as_rotvec()  # (bones, 3)
+    out = np.broadcast_to(np.eye(4), (len(t), *c0.shape)).copy()
+    for i, s in enumerate(t):
+        out[i, :, :3, :3] = (r0 * Rotation.from_rotvec(s * step)).as_matrix()
+        out[i, :, :3, 3] = (1 - s) * c0[:, :3, 3] + s * c1[:, :3, 3]
+    return out

@@ -4,6 +4,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..mesh import farthest_first
+
 __all__ = ["make_splits", "hausdorff", "furthest_point_subset"]
 
 
@@ -47,11 +49,4 @@ def furthest_point_subset(vertices: np.ndarray, n: int) -> np.ndarray:
     Starts from shape 0 and repeatedly adds the shape furthest (in Hausdorff distance)
     from those already chosen; needs ``n · N`` distances, not the ``N²`` matrix.
     """
-    n = min(n, len(vertices))
-    chosen = [0]
-    nearest = np.array([hausdorff(vertices[0], v) for v in vertices])
-    while len(chosen) < n and nearest.max() > 0:  # stop when only copies of chosen shapes remain
-        nxt = int(np.argmax(nearest))
-        chosen.append(nxt)
-        nearest = np.minimum(nearest, [hausdorff(vertices[nxt], v) for v in vertices])
-    return np.array(chosen)
+    return farthest_first(lambda i: np.array([hausdorff(vertices[i], v) for v in vertices]), n)

@@ -1,0 +1,187 @@
+"""Interactive interpolation and analogy (ipywidgets, in JupyterLab), with a static fallback.
+
+::
+
+    explorer = opnet.widgets.interpolation_explorer(ds, methods)   # a slider for t, dropdowns, a method selector
+    opnet.widgets.show(explorer)                                    # the widget, or a picture of its current state
+
+Each explorer renders its shapes side by side with pyvista off screen into an ``ipywidgets.Image`` that updates
+when a control changes. Where no kernel drives the widgets — a notebook executed by ``make run`` (its HTML) or by
+the tests (nbval) — :func:`show` displays that image instead, so the page reads complete; those commands set
+``OPNET_STATIC_WIDGETS=1``. ``methods`` are :class:`opnet.apps.ShapeAlgebra` objects.
+"""
+from __future__ import annotations
+
+import io
+import os
+
+import numpy as np
+
+__all__ = ["interactive", "show", "render_png", "interpolation_explorer", "analogy_explorer", "shape_labels"]
+
+
+def interactive() -> bool:
+    """Whether :func:`show` displays live widgets: yes unless ``OPNET_STATIC_WIDGETS`` is set to ``1``."""
+    return os.environ.get("OPNET_STATIC_WIDGETS", "0") != "1"
+
+
+def show(explorer) -> None:
+    """Display an explorer: the live widget (:func:`interactive`), else a static PNG of its current state."""
+    from IPython.display import Image, display
+
+    if interactive():
+        display(explorer)
+    else:  # as JPEG, like the static backend's renders (a fraction of the PNG's size)
+        import PIL.Image
+
+        buf = io.BytesIO()
+        PIL.Image.open(io.BytesIO(explorer.image.value)).convert("RGB").save(buf, format="jpeg", quality=90)
+        display(Image(data=buf.getvalue(), format="jpeg"))
+
+
+def render_png(meshes, faces, titles, scalars=None, *, clim=None, camera="xz", zoom=1.2, size=(220, 300)) -> bytes:
+    """Shapes ``(vertices (n, 3), ...)`` side by side, rendered off screen: PNG bytes (one row, ``size`` per shape).
+
+    ``scalars``: a per-vertex field or ``None`` per shape, painted on a shared range ``clim`` (default 0 to the
+    largest value)."""
+    import PIL.Image
+
+    from .plotting import headless, plot_meshes
+
+    headless()
+    fields = [s for s in (scalars or []) if s is not None]
+    clim = clim or ((0.0, max(float(np.max(s)) for s in fields)) if fields else None)
+    plotter = plot_meshes([(v, faces) for v in meshes], scalars, titles, cmap="magma_r", clim=clim,
+                          ncols=len(meshes), camera=camera, zoom=zoom, window_size=(size[0] * len(meshes), size[1]))
+    img = plotter.screenshot(return_img=True)
+    plotter.close()
+    buf = io.BytesIO()
+    PIL.Image.fromarray(img).save(buf, format="png")
+    return buf.getvalue()
+
+
+def shape_labels(collection, indices) -> dict:
+    """Dropdown options: ``"subject03/walk, frame 2 (#17)"`` → index, for the collection's shapes ``indices``."""
+    frames = collection.params.get("frame")
+    return {f"{collection.subcollection[i]}" + (f", frame {frames[i]}" if frames is not None else "") + f" (#{i})": int(i)
+            for i in indices}
+
+
+def _default_shapes(collection) -> dict:
+    idx = np.concatenate([collection.indices("test"), collection.indices("test_subjects")])
+    return shape_labels(collection, idx if len(idx) else np.arange(len(collection)))
+
+
+def _with_errors(shapes: dict, truth):
+    """Titles and per-vertex errors of shapes aligned onto ``truth`` (or plain shapes when there is none)."""
+    from .metrics import rigid_align
+
+    names, meshes, scalars = [], [], []
+    for name, V in shapes.items():
+        if truth is None:
+            names.append(name), meshes.append(V), scalars.append(None)
+            continue
+        A = rigid_align(V, truth)
+        err = np.linalg.norm(A - truth, axis=-1)
+        names.append(f"{name}: {1000 * err.mean():.1f} mm"), meshes.append(A), scalars.append(err)
+    return names, meshes, scalars
+
+
+def interpolation_explorer(collection, methods, *, shapes: dict | None = None, steps: int = 11, camera="xz",
+                           start=None, end=None):
+    """A widget: dropdowns for the start and end shapes, a method selector, a slider for ``t``, and the shapes at
+    ``t`` of every selected method side by side. Paths are computed once per (method, start, end) at ``steps``
+    values of ``t``; the slider moves along them.
+
+    ``shapes``: dropdown label → collection index (default: the ``test`` and ``test_subjects`` shapes,
+    :func:`shape_labels`); ``start``, ``end``: initial labels (default: the first, and the first of another
+    sequence). All ``methods`` are selected at first.
+    Returns an ``ipywidgets.VBox`` with an ``image`` attribute (the current render) for :func:`show`.
+    """
+    import ipywidgets as w
+
+    shapes = shapes or _default_shapes(collection)
+    labels = list(shapes)
+    by_name = {m.name: m for m in methods}
+    t = np.linspace(0, 1, steps)
+    start = start or labels[0]
+    if end is None:  # the first shape of another sequence (not a random pose), else the last one
+        sub = collection.subcollection
+        end = next((label for label, i in shapes.items() if sub[i] != sub[shapes[start]]
+                    and not str(sub[i]).endswith("/random")), labels[-1])
+    first = w.Dropdown(options=labels, value=start, description="start")
+    last = w.Dropdown(options=labels, value=end, description="end")
+    chosen = w.SelectMultiple(options=list(by_name), value=tuple(by_name), description="methods", rows=len(by_name))
+    slider = w.FloatSlider(value=0.5, min=0, max=1, step=1 / (steps - 1), description="t", continuous_update=False)
+    image = w.Image(format="png")
+    cache = {}
+
+    def path(name):
+        key = (name, first.value, last.value)
+        if key not in cache:
+            cache[key] = by_name[name].interpolate(shapes[first.value], shapes[last.value], t)
+        return cache[key]
+
+    def update(_=None):
+        j = int(round(slider.value * (steps - 1)))
+        shown = {name: path(name)[j] for name in chosen.value}
+        image.value = render_png(list(shown.values()), collection.faces, [f"{n}, t = {t[j]:.1f}" for n in shown],
+                                 camera=camera)
+
+    for control in (first, last, chosen, slider):
+        control.observe(update, names="value")
+    update()
+    box = w.VBox([w.HBox([first, last]), w.HBox([chosen, slider]), image])
+    box.image = image
+    return box
+
+
+def analogy_explorer(collection, methods, *, subjects=None, poses=None, camera="xz", initial=None):
+    """A widget for ``A : B :: C : X`` with shapes made by the generator from a subject and a pose each.
+
+    Dropdowns choose the subject and the pose of ``A``, ``B`` and ``C`` (subjects: the unseen ``test_subjects``;
+    poses: the ``test`` shapes' poses, by default); a method selector chooses the methods whose ``X`` is shown.
+    Where the analogy has a generated answer — the subject of ``X`` is ``C``'s when ``A`` and ``B`` share theirs,
+    ``B``'s when ``A`` and ``C`` do, and likewise for the pose — the true ``X`` is shown and every method's ``X`` is
+    coloured by its distance to it. ``initial``: ``(sA, pA, sB, pB, sC, pC)`` dropdown indices (default: a pose
+    transfer). Returns an ``ipywidgets.VBox`` with an ``image`` attribute for :func:`show`.
+    """
+    import ipywidgets as w
+
+    from .apps import _test_pool
+    from .data.generators import generate_shapes
+
+    subj, pose_idx, _ = _test_pool(collection)
+    subjects = subjects if subjects is not None else {f"unseen subject {i}": p for i, p in enumerate(subj)}
+    poses = poses if poses is not None else {label: collection.params["controls"][i]
+                                             for label, i in shape_labels(collection, pose_idx).items()}
+    s_names, p_names = list(subjects), list(poses)
+    by_name = {m.name: m for m in methods}
+    initial = initial or (0, 0, 0, len(p_names) - 1, min(1, len(s_names) - 1), 0)
+    boxes = []
+    for role, k in zip("ABC", range(3)):
+        boxes += [w.Dropdown(options=s_names, value=s_names[initial[2 * k]], description=f"{role} subject"),
+                  w.Dropdown(options=p_names, value=p_names[initial[2 * k + 1]], description=f"{role} pose")]
+    chosen = w.SelectMultiple(options=list(by_name), value=tuple(by_name), description="methods", rows=len(by_name))
+    image = w.Image(format="png")
+
+    def solve(a, b, c):  # the answer's part where the analogy determines it: c when a == b, b when a == c
+        return c if a == b else b if a == c else None
+
+    def update(_=None):
+        s = [boxes[2 * k].value for k in range(3)]
+        p = [boxes[2 * k + 1].value for k in range(3)]
+        V = generate_shapes(collection, np.stack([subjects[x] for x in s]), np.stack([poses[x] for x in p]))
+        sx, px = solve(*s), solve(*p)
+        truth = None if sx is None or px is None else generate_shapes(collection, subjects[sx][None], poses[px][None])[0]
+        names, meshes, scalars = _with_errors({m: by_name[m].analogy(*V) for m in chosen.value}, truth)
+        known = [("A", V[0]), ("B", V[1]), ("C", V[2])] + ([("true X", truth)] if truth is not None else [])
+        image.value = render_png([v for _, v in known] + meshes, collection.faces, [n for n, _ in known] + names,
+                                 [None] * len(known) + scalars, camera=camera)
+
+    for control in (*boxes, chosen):
+        control.observe(update, names="value")
+    update()
+    box = w.VBox([w.HBox(boxes[0:2]), w.HBox(boxes[2:4]), w.HBox(boxes[4:6]), chosen, image])
+    box.image = image
+    return box
