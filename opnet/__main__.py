@@ -38,7 +38,8 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--channels", default=None,
                    help="input operators, comma-separated subset of area,conformal,extrinsic, or a short name "
                         "(A+E+C, Area, Ext, Conf, A+E, A+C, E+C); default all three (OperatorNet only)")
-    t.add_argument("--depth", type=int, default=1, choices=[1, 2, 3, 4], help="convolution layers in the encoder (1)")
+    t.add_argument("--depth", type=int, default=None, choices=[1, 2, 3, 4],
+                   help="convolution layers in OperatorNet's encoder (1)")
     t.add_argument("--epochs", type=_positive, default=50, help="passes over the training split (50); more continues a run")
     t.add_argument("--batch-size", type=_positive, default=32, help="shapes per step, global across processes (32)")
     t.add_argument("--lr", type=float, default=1e-3, help="Adam learning rate (1e-3)")
@@ -54,7 +55,7 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--architecture", default="operatornet", choices=["operatornet", "pointnet"],
                    help="operatornet (default), or pointnet: the PointNet autoencoder baseline, which reads the "
                         "coordinates (same decoder, loss and checkpoints; --channels/--variant do not apply)")
-    t.add_argument("--points", type=_positive, default=256, help="pointnet: vertices the encoder reads (256)")
+    t.add_argument("--points", type=_positive, default=None, help="pointnet: vertices the encoder reads (256)")
     t.add_argument("--device", default="auto", help="auto (CUDA if present), cpu, cuda, cuda:N")
     t.add_argument("--run-dir", required=True, help="folder for config.json, latest.pt, best.pt, history.json")
     t.add_argument("--restart", action="store_true", help="replace the run in --run-dir instead of resuming it")
@@ -169,7 +170,7 @@ def _run(args) -> int:
             coll = _collection(args)
             if distributed and _rank() == 0:
                 _barrier()
-            _, history = fit(coll, channels=channels, depth=args.depth, epochs=args.epochs,
+            _, history = fit(coll, channels=channels, depth=args.depth or 1, epochs=args.epochs,
                              batch_size=args.batch_size, lr=args.lr, seed=args.seed, device=args.device,
                              run_dir=args.run_dir, resume=not args.restart, hidden=args.hidden,
                              subtract_identity=not args.no_subtract_identity, variant=args.variant,

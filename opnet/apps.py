@@ -79,6 +79,8 @@ class ShapeAlgebra:
             raise ValueError(f"space must be 'operators' or 'latent', got {self.space!r}.")
         if self.scheme not in SCHEMES:
             raise ValueError(f"scheme must be one of {SCHEMES}, got {self.scheme!r}.")
+        if self.max_shapes is not None and (not _is_index(self.max_shapes) or self.max_shapes < 1):
+            raise ValueError(f"max_shapes must be a positive integer or None, got {self.max_shapes!r}.")
 
     def shapes(self, shapes) -> np.ndarray:
         """Vertices ``(B, n, 3)`` float64 of indices into the collection or of vertex arrays ``(n, 3)`` / ``(B, n, 3)``."""
@@ -167,17 +169,24 @@ def operatornet_algebra(net, collection, *, scheme: str = "multiplicative", refi
     ``max_shapes`` to bound the benchmarks). ``name`` defaults to ``"OperatorNet (mult.)"`` / ``"(linear)"``,
     with ``" + refinement"``.
     """
+    if not hasattr(net, "channels"):
+        raise TypeError(f"operatornet_algebra needs a trained OperatorNet, got a {type(net).__name__} (for the PointNet "
+                        "autoencoder use pointnet_algebra).")
     chans = _select(net.channels)
     base_name = name or f"OperatorNet ({'mult.' if scheme == 'multiplicative' else 'linear'})"
     plain = ShapeAlgebra(base_name, collection, _operators(collection), lambda R: predict(net, R[:, chans]),
-                         "operators", scheme)
+                         "operators", scheme, max_shapes if refine is None else None)
     if refine is None:
-        plain.max_shapes = max_shapes
         return plain
     from .geometric import reconstruct
+    from .train import parse_channels
 
     options = dict(refine)
-    ref_chans = _select(tuple(options.get("channels", KINDS)))
+    if {"init", "progress"} & set(options):
+        raise ValueError(f"refine= sets options of opnet.reconstruct other than init and progress (the decoded "
+                         f"shape is the start; no bar per call), got {sorted({'init', 'progress'} & set(options))}.")
+    options["channels"] = parse_channels(options.get("channels", KINDS))
+    ref_chans = _select(options["channels"])
 
     def decode(R):
         return reconstruct(R[:, ref_chans], collection.base_basis, init=plain.decode(R), progress=False, **options)
@@ -190,6 +199,9 @@ def pointnet_algebra(net, collection, *, name: str = "PointNet AE") -> ShapeAlge
     """Shapes → a PointNet autoencoder's codes → linear algebra in the code → its decoder → shapes."""
     import torch
 
+    if not (hasattr(net, "encode") and hasattr(net, "decode")):
+        raise TypeError(f"pointnet_algebra needs a trained PointNetAutoencoder (encode and decode), got a "
+                        f"{type(net).__name__} (for OperatorNet use operatornet_algebra).")
     device = next(net.parameters()).device
 
     def run(f, x):
@@ -230,7 +242,10 @@ def _test_pool(collection):
 
 @dataclass
 class Quadruples:
-    """Analogy questions with their answers: ``A : B :: C : X``, vertices ``(Q, n, 3)`` each, and their ``kind``."""
+    """Analogy questions with their answers: ``A : B :: C : X``, vertices ``(Q, n, 3)`` each, and their ``kind``.
+
+    ``phenotypes`` ``(Q, 2, 6)``: the subjects ``a``, ``b`` of each question; ``poses`` ``(Q, 2)``: the collection
+    indices of the ``test`` shapes whose poses are ``p``, ``q`` (see :func:`analogy_quadruples` for the roles)."""
 
     kind: str
     A: np.ndarray
@@ -238,6 +253,8 @@ class Quadruples:
     C: np.ndarray
     X: np.ndarray
     labels: list = field(default_factory=list)
+    phenotypes: np.ndarray | None = None
+    poses: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.X)
@@ -278,9 +295,10 @@ def analogy_quadruples(collection, kind: str = "pose", n: int = 100, *, seed: in
     ap, aq, bp, bq = np.split(generate_shapes(collection, phen, ctrl), 4)
     labels = [f"subjects {i}/{j}, poses {collection.subcollection[u]}#{u}/{collection.subcollection[v]}#{v}"
               for i, j, u, v in zip(a, b, p, q)]
+    who = dict(labels=labels, phenotypes=np.stack([subjects[a], subjects[b]], axis=1), poses=np.stack([p, q], axis=1))
     if kind == "pose":
-        return Quadruples(kind, ap, aq, bp, bq, labels)
-    return Quadruples(kind, ap, bp, aq, bq, labels)
+        return Quadruples(kind, ap, aq, bp, bq, **who)
+    return Quadruples(kind, ap, bp, aq, bq, **who)
 
 
 @dataclass
@@ -301,11 +319,13 @@ def interpolation_paths(collection, kind: str = "pose", n_paths: int = 10, steps
                         seed: int = 0) -> Paths:
     """``n_paths`` paths of ``steps`` shapes with the generator's true in-between shapes.
 
-    - ``kind="pose"``: one subject of a ``test`` sequence, from its first frame to the frame of that sequence whose
-      controls differ most from it; the true in-between has every joint turned part of the way
-      (:func:`opnet.data.generators.interpolate_controls`).
-    - ``kind="body"``: one ``test`` pose, from an unseen subject ``a`` to another ``b``; the true in-between has
-      the phenotype ``(1 − t) a + t b``.
+    - ``kind="pose"``: an unseen subject (``test_subjects``, drawn by ``seed``) moving from the first pose of a
+      ``test`` sequence to the pose of that sequence that differs most from it (the sequences in turn); the true
+      in-between has every joint turned part of the way (:func:`opnet.data.generators.interpolate_controls`).
+    - ``kind="body"``: one ``test`` pose (drawn), from an unseen subject ``a`` to another ``b``; the true in-between
+      has the phenotype ``(1 − t) a + t b``.
+
+    All shapes, the ends included, are generated anew, as for :func:`analogy_quadruples`.
     """
     from .data.generators import generate_shapes, interpolate_controls
 
@@ -314,7 +334,7 @@ def interpolation_paths(collection, kind: str = "pose", n_paths: int = 10, steps
     if not _is_index(n_paths) or n_paths < 1 or not _is_index(steps) or steps < 2:
         raise ValueError(f"need an integer n_paths >= 1 and steps >= 2, got {n_paths!r} and {steps!r}.")
     subjects, pose_idx, sequences = _test_pool(collection)
-    controls, phenotypes = collection.params["controls"], collection.params["phenotypes"]
+    controls = collection.params["controls"]
     t = np.linspace(0, 1, steps)
     rng = np.random.default_rng([seed, PATH_KINDS.index(kind)])
     phen, ctrl, labels = [], [], []
@@ -324,9 +344,10 @@ def interpolation_paths(collection, kind: str = "pose", n_paths: int = 10, steps
             members = pose_idx[sequences == names[k % len(names)]]
             start = members[0]
             end = members[np.argmax([np.linalg.norm(controls[m] - controls[start]) for m in members])]
-            phen.append(np.repeat(phenotypes[start][None], steps, 0))
+            i = rng.integers(len(subjects))
+            phen.append(np.repeat(subjects[i][None], steps, 0))
             ctrl.append(interpolate_controls(collection, controls[start], controls[end], t))
-            labels.append(f"{collection.subcollection[start]} #{start} → #{end}")
+            labels.append(f"subject {i}, poses {collection.subcollection[start]} #{start} → #{end}")
     else:
         if len(subjects) < 2:
             raise ValueError("body paths need two unseen subjects (test_subjects); use a larger preset.")
@@ -392,17 +413,22 @@ def path_metrics(path, truth, faces) -> dict:
       true endpoint (0 for a path that bends without stretching);
     - ``smoothness``: the largest jump between consecutive steps (RMS vertex distance after rigid alignment)
       divided by the path's length (the sum of the jumps); ``1 / (T − 1)`` for evenly spaced steps, up to 1 for a
-      path that jumps at once;
-    - ``d_R_truth``: mean ``d_R`` of the inner steps against the true in-between shapes (length²).
+      path that jumps at once; NaN for a path that does not move (length under 10⁻⁹ of the shape's size);
+    - ``d_R_truth``: mean ``d_R`` of the inner steps (both ends when ``T = 2``) against the true in-between shapes
+      (length²).
+
+    ``distortion`` and ``d_R_truth`` are measured against the truth, so they include the method's own
+    reconstruction error (``endpoint_d_R`` shows its size at the ends).
     """
     path, truth = np.asarray(path, np.float64), np.asarray(truth, np.float64)
     T = len(path)
+    size = float(np.linalg.norm(truth[0].max(0) - truth[0].min(0)))  # the bounding box's diagonal
     nearer = np.where(np.arange(T) <= (T - 1) / 2, 0, T - 1)
     jumps = np.sqrt(d_R(path[:-1], path[1:]))
     inner = slice(1, T - 1) if T > 2 else slice(0, T)
     return dict(endpoint_d_R=float(np.mean(d_R(truth[[0, -1]], path[[0, -1]]))),
                 distortion=float(np.max(d_E(truth[nearer], path, faces))),
-                smoothness=float(jumps.max() / jumps.sum()) if jumps.sum() > 0 else float("nan"),
+                smoothness=float(jumps.max() / jumps.sum()) if jumps.sum() > 1e-9 * size else float("nan"),
                 d_R_truth=float(np.mean(d_R(truth[inner], path[inner]))))
 
 
@@ -427,8 +453,9 @@ def interpolation_benchmark(collection, methods, paths, *, progress: bool | None
                 metrics = [dict(r, endpoint_d_R=0.0, d_R_truth=0.0) for r in metrics]
             row = dict(method="Ground truth" if m is None else m.name, kind=P.kind, n_paths=n, steps=len(P.t))
             for key in metrics[0]:
-                row[key] = float(np.mean([r[key] for r in metrics]))
-            row["smoothness_max"] = float(np.max([r["smoothness"] for r in metrics]))
+                row[key] = float(np.nanmean([r[key] for r in metrics]))
+            row["smoothness_max"] = float(np.nanmax([r["smoothness"] for r in metrics]))
+            row["stuck_paths"] = int(np.sum([np.isnan(r["smoothness"]) for r in metrics]))
             rows.append(row)
             bar.update(1)
     bar.close()

@@ -112,8 +112,8 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
         (:func:`opnet.reconstruct` with :data:`REFINE`, ``budget.refine_steps`` steps, on at most
         ``budget.refine_shapes`` shapes of each of :data:`REFINE_SETS`, evenly spaced: they take seconds per shape).
     applications : also train the PointNet autoencoder (Table 1's "PointNet AE" row) and run the analogy and
-        interpolation benchmarks (:func:`applications`; ``budget.analogies`` questions and ``budget.paths`` paths
-        per kind).
+        interpolation benchmarks (:func:`applications_rows`; ``budget.analogies`` questions and ``budget.paths``
+        paths per kind).
     budget : training settings; default ``BUDGETS[preset]``.
     data_root : where collections are cached (default ``opnet.data.default_root()``).
     progress : ``None`` (default): one progress bar over the networks; ``True``: also a bar per network over
@@ -278,10 +278,9 @@ def _application_figures(out: Path, coll, methods, quads, paths) -> None:
                                       coll.faces, P.t, truth=P.truth[i])
         plotter.screenshot(str(out / f"interpolation_{P.kind}.png"))
         plotter.close()
-    shown = [m for m in methods if m.max_shapes is None]
     for Q in quads:
         q = min(3, len(Q))
-        plotter = plot_analogies(Q.A[:q], Q.B[:q], Q.C[:q], {m.name: m.analogy(Q.A[:q], Q.B[:q], Q.C[:q]) for m in shown},
+        plotter = plot_analogies(Q.A[:q], Q.B[:q], Q.C[:q], {m.name: m.analogy(Q.A[:q], Q.B[:q], Q.C[:q]) for m in methods},
                                  coll.faces, truth=Q.X[:q])
         plotter.screenshot(str(out / f"analogy_{Q.kind}.png"))
         plotter.close()
@@ -321,8 +320,8 @@ def results_markdown(rows: list[dict], context: dict) -> str:
              f"Machine: {context['machine']}. Wall time so far: {context['wall_seconds']:.0f} s "
              "(data, training, evaluation; finished runs are reused, so a resumed call counts only what it did).", "",
              f"Data: {context['collection']}; the 50-shape evaluation subset has {context['eval_subset']} shapes.", "",
-             f"Training: Adam, lr {b['lr']}, batch {b['batch_size']}, {b['epochs']} epochs for Table 1 and "
-             f"{b['ablation_epochs']} for the ablation (fewer, to keep the 28-network grid affordable); model "
+             f"Training: Adam, lr {b['lr']}, batch {b['batch_size']}, {b['epochs']} epochs for Table 1's OperatorNets "
+             f"({b.get('pointnet_epochs', b['epochs'])} for the PointNet AE) and {b['ablation_epochs']} for the ablation (fewer, to keep the 28-network grid affordable); model "
              "selection on `val`. The paper's numbers are on DFAUST, ours on `anny` humans: the scale (metres) is "
              "alike, the data are not the same.", "",
              "## Table 1: shape reconstruction", "",

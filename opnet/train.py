@@ -1,10 +1,11 @@
-"""Training OperatorNet (section 5): :func:`fit`, run directories, atomic checkpoints, exact resume, DDP.
+"""Training OperatorNet (section 5) and the PointNet autoencoder: :func:`fit`, run directories, atomic checkpoints,
+exact resume, DDP.
 
 A run directory holds four files, each written atomically (temporary file + ``os.replace``):
 
 ``config.json``
     what was trained on and how: the collection (name, preset, resolution, seed, generator version and a
-    SHA-256 fingerprint of its arrays), the network (:meth:`OperatorNet.config`), the hyper-parameters, and
+    SHA-256 fingerprint of its arrays), the network (its ``config()``), the hyper-parameters, and
     the training-code version (:data:`TRAINING_VERSION`), the opnet / torch versions and the device.
 ``latest.pt``
     the state after the last finished epoch: weights, Adam state, history, best epoch. It is the commit
@@ -239,7 +240,8 @@ def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_si
         seed: int = 0, device="auto", run_dir=None, resume: bool = True, progress: bool | None = None,
         hidden: int = 1024, subtract_identity: bool = True, variant: str = "paper",
         schedule: str | None = None, standardize: bool | None = None,
-        residual: bool | None = None, architecture: str = "operatornet", n_points: int = 256) -> tuple[OperatorNet, list[dict]]:
+        residual: bool | None = None, architecture: str = "operatornet",
+        n_points: int | None = None) -> tuple[torch.nn.Module, list[dict]]:
     """Train OperatorNet (or the PointNet autoencoder) on the ``train`` split of ``collection``; returns the best
     network on ``val`` and the history.
 
@@ -278,12 +280,14 @@ def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_si
         (:class:`opnet.model.PointNetAutoencoder`), which reads the shapes' coordinates instead of their operators
         and is trained with the same loss, checkpoints and resume (``channels``, ``depth`` and the variant's
         options do not apply to it; ``hidden`` and ``schedule`` do).
-    n_points : how many vertices the PointNet encoder reads (spread over the base shape; 256 by default, the
-        ``PointNetAutoencoder``'s ``n_points``). The README's PointNet section measures the choice.
+    n_points : how many vertices the PointNet encoder reads (spread over the base shape by
+        :meth:`~opnet.model.PointNetAutoencoder.choose_points`); default 256 for ``architecture="pointnet"``
+        (``benchmarks/pointnet.py`` measures the choice: as accurate as all the vertices, 5× faster).
 
     Returns
     -------
-    net : OperatorNet, the weights of the epoch with the lowest val ``d_R``, in eval mode on ``device``.
+    net : OperatorNet (or PointNetAutoencoder), the weights of the epoch with the lowest val ``d_R``, in eval mode
+        on ``device``.
     history : list of dict, one per epoch: ``epoch``, ``train_loss``, ``val_d_R`` (length²), ``seconds``.
 
     Raises
@@ -293,10 +297,15 @@ def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_si
     """
     if architecture not in ARCHITECTURES:
         raise ValueError(f"architecture must be one of {list(ARCHITECTURES)}, got {architecture!r}.")
-    pointnet = architecture == "pointnet"
-    if pointnet and (channels is not None or variant != "paper" or standardize is not None or residual is not None):
-        raise ValueError("architecture='pointnet' reads coordinates, not operators: channels, variant, standardize and "
-                         "residual are OperatorNet's options; leave them unset.")
+    pointnet = ARCHITECTURES[architecture][1] == "vertices"  # what the network reads
+    if pointnet and (channels is not None or variant != "paper" or standardize is not None or residual is not None
+                     or depth != 1 or subtract_identity is not True):
+        raise ValueError("architecture='pointnet' reads coordinates, not operators: channels, depth, variant, "
+                         "subtract_identity, standardize and residual are OperatorNet's options; leave them unset.")
+    if not pointnet and n_points is not None:
+        raise ValueError("n_points is the PointNet autoencoder's option (architecture='pointnet'); OperatorNet reads "
+                         "operators, not points: leave it unset.")
+    n_points = 256 if n_points is None else n_points
     channels = parse_channels(KINDS if channels is None else channels)
     if variant not in VARIANTS:
         raise ValueError(f"variant must be one of {list(VARIANTS)}, got {variant!r}.")
@@ -315,7 +324,9 @@ def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_si
         raise ValueError(f"the collection needs shapes in both 'train' and 'val' (it has {len(train_idx)} and "
                          f"{len(val_idx)}); give it a splits.csv or use a larger preset.")
     chans = [KINDS.index(c) for c in channels]
-    for name, arr in (("operators", collection.operators), ("vertices", collection.vertices)):
+    read = {"vertices": collection.vertices} if pointnet else {"operators": collection.operators,
+                                                               "vertices": collection.vertices}
+    for name, arr in read.items():
         bad = ~np.isfinite(arr[np.concatenate([train_idx, val_idx])]).reshape(len(train_idx) + len(val_idx), -1).all(1)
         if bad.any():
             raise ValueError(f"the collection's {name} hold NaN or infinite values in {bad.sum()} train/val shapes "
@@ -454,6 +465,9 @@ def _diverged(epoch, what, history, start, run_dir, lr):
 def _check_same_run(saved: dict, wanted: dict, run_dir: Path) -> None:
     """Refuse to resume a run of other data, another network or other hyper-parameters (``epochs`` may grow)."""
     fix = "choose another run_dir, or pass resume=False (CLI: --restart) to replace it."
+    old_arch, new_arch = (c.get("model", {}).get("architecture", "operatornet") for c in (saved, wanted))
+    if old_arch != new_arch:
+        raise CheckpointError(f"{run_dir} holds a {old_arch} run, not a {new_arch} one; {fix}")
     for part in ("data", "model", "train"):
         old, new = dict(saved.get(part, {})), dict(wanted[part])
         if part == "model" and old.get("architecture", "operatornet") == "operatornet":

@@ -96,7 +96,8 @@ def interpolation_explorer(collection, methods, *, shapes: dict | None = None, s
     ``shapes``: dropdown label → collection index (default: the ``test`` and ``test_subjects`` shapes,
     :func:`shape_labels`); ``start``, ``end``: initial labels (default: the first, and the first of another
     sequence). All ``methods`` are selected at first.
-    Returns an ``ipywidgets.VBox`` with an ``image`` attribute (the current render) for :func:`show`.
+    Returns an ``ipywidgets.VBox`` with attributes ``image`` (the current render, for :func:`show`) and
+    ``titles`` (the captions of the shapes shown).
     """
     import ipywidgets as w
 
@@ -124,15 +125,18 @@ def interpolation_explorer(collection, methods, *, shapes: dict | None = None, s
 
     def update(_=None):
         j = int(round(slider.value * (steps - 1)))
-        shown = {name: path(name)[j] for name in chosen.value}
-        image.value = render_png(list(shown.values()), collection.faces, [f"{n}, t = {t[j]:.1f}" for n in shown],
-                                 camera=camera)
+        if chosen.value:
+            shown = {f"{name}, t = {t[j]:.1f}": path(name)[j] for name in chosen.value}
+        else:  # no method selected: the two ends
+            shown = {"start": collection.vertices[shapes[first.value]], "end": collection.vertices[shapes[last.value]]}
+        box.titles = list(shown)
+        image.value = render_png(list(shown.values()), collection.faces, box.titles, camera=camera)
 
+    box = w.VBox([w.HBox([first, last]), w.HBox([chosen, slider]), image])
+    box.image = image
     for control in (first, last, chosen, slider):
         control.observe(update, names="value")
     update()
-    box = w.VBox([w.HBox([first, last]), w.HBox([chosen, slider]), image])
-    box.image = image
     return box
 
 
@@ -144,7 +148,8 @@ def analogy_explorer(collection, methods, *, subjects=None, poses=None, camera="
     Where the analogy has a generated answer — the subject of ``X`` is ``C``'s when ``A`` and ``B`` share theirs,
     ``B``'s when ``A`` and ``C`` do, and likewise for the pose — the true ``X`` is shown and every method's ``X`` is
     coloured by its distance to it. ``initial``: ``(sA, pA, sB, pB, sC, pC)`` dropdown indices (default: a pose
-    transfer). Returns an ``ipywidgets.VBox`` with an ``image`` attribute for :func:`show`.
+    transfer). Returns an ``ipywidgets.VBox`` with attributes ``image`` (for :func:`show`), ``titles`` (the
+    captions shown) and ``controls`` (the six dropdowns: A subject, A pose, B subject, ...).
     """
     import ipywidgets as w
 
@@ -176,12 +181,13 @@ def analogy_explorer(collection, methods, *, subjects=None, poses=None, camera="
         truth = None if sx is None or px is None else generate_shapes(collection, subjects[sx][None], poses[px][None])[0]
         names, meshes, scalars = _with_errors({m: by_name[m].analogy(*V) for m in chosen.value}, truth)
         known = [("A", V[0]), ("B", V[1]), ("C", V[2])] + ([("true X", truth)] if truth is not None else [])
-        image.value = render_png([v for _, v in known] + meshes, collection.faces, [n for n, _ in known] + names,
+        box.titles = [n for n, _ in known] + names
+        image.value = render_png([v for _, v in known] + meshes, collection.faces, box.titles,
                                  [None] * len(known) + scalars, camera=camera)
 
+    box = w.VBox([w.HBox(boxes[0:2]), w.HBox(boxes[2:4]), w.HBox(boxes[4:6]), chosen, image])
+    box.image, box.controls = image, boxes
     for control in (*boxes, chosen):
         control.observe(update, names="value")
     update()
-    box = w.VBox([w.HBox(boxes[0:2]), w.HBox(boxes[2:4]), w.HBox(boxes[4:6]), chosen, image])
-    box.image = image
     return box

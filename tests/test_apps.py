@@ -75,10 +75,18 @@ def test_pointnet_trains_checkpoints_and_resumes_like_operatornet(coll, tmp_path
         train.fit(coll, architecture="pointnet", n_points=32, epochs=4, run_dir=tmp_path / "pn", **FAST)
     with pytest.raises(train.CheckpointError, match="reads no operators"):
         train.load_model(tmp_path / "pn", channels="A+E")
-    with pytest.raises(ValueError, match="OperatorNet's options"):
-        train.fit(coll, architecture="pointnet", channels="Ext", **FAST)
+    for wrong in (dict(channels="Ext"), dict(depth=2), dict(subtract_identity=False), dict(variant="ours")):
+        with pytest.raises(ValueError, match="OperatorNet's options"):
+            train.fit(coll, architecture="pointnet", **wrong, **FAST)
+    with pytest.raises(ValueError, match="n_points is the PointNet"):
+        train.fit(coll, n_points=64, **FAST)
     with pytest.raises(ValueError, match="architecture must be one of"):
         train.fit(coll, architecture="pointnet2", **FAST)
+    with pytest.raises(train.CheckpointError, match="holds a pointnet run, not a operatornet one"):
+        train.fit(coll, epochs=4, run_dir=tmp_path / "pn", **FAST)  # an OperatorNet into PointNet's run directory
+    train.fit(coll, epochs=1, run_dir=tmp_path / "op", **FAST)
+    with pytest.raises(train.CheckpointError, match="holds a operatornet run, not a pointnet one"):
+        train.fit(coll, architecture="pointnet", epochs=1, run_dir=tmp_path / "op", **FAST)
     rows = opnet.evaluate.evaluate(coll, [opnet.evaluate.pointnet_method(loaded, coll)], ("test",))
     assert rows[0]["method"] == "PointNet AE" and np.isfinite(rows[0]["d_R"])
 
@@ -157,11 +165,19 @@ def test_operatornet_and_pointnet_algebras_decode_shapes(coll):
         assert path.shape == (4, n, 3) and np.isfinite(path).all()
         np.testing.assert_allclose(path[0], alg.reconstruct(0)[0], atol=1e-5)  # t = 0 is the start shape's decoding
         assert alg.analogy(0, 1, 2).shape == (n, 3) and alg.analogy([0, 1], [1, 2], [2, 3]).shape == (2, n, 3)
-    refined = apps.operatornet_algebra(net, coll, refine=dict(steps=3, channels=("area", "extrinsic")))
+    refined = apps.operatornet_algebra(net, coll, refine=dict(steps=3, channels="A+E"))
     assert refined.name == "OperatorNet (mult.) + refinement" and refined.unrefined is not None
     plain = refined.unrefined.analogy(0, 1, 2)
     out = refined.analogy(0, 1, 2)
     assert out.shape == (n, 3) and not np.allclose(out, plain)
+    with pytest.raises(ValueError, match="other than init and progress"):
+        apps.operatornet_algebra(net, coll, refine=dict(init="base"))
+    with pytest.raises(TypeError, match="pointnet_algebra"):
+        apps.operatornet_algebra(pn, coll)
+    with pytest.raises(TypeError, match="operatornet_algebra"):
+        apps.pointnet_algebra(net, coll)
+    with pytest.raises(ValueError, match="max_shapes"):
+        apps.operatornet_algebra(net, coll, max_shapes=0)
 
 
 def test_shapes_are_checked(coll):
@@ -196,6 +212,18 @@ def test_path_metrics_score_the_truth_as_perfect_and_a_jump_as_a_jump(coll):
     assert apps.path_metrics(jump, truth, coll.faces)["smoothness"] == pytest.approx(1.0)
     stretched = truth * np.array([1.0, 1.0, 1.3])
     assert apps.path_metrics(stretched, truth, coll.faces)["distortion"] > 0.05
+    # distortion is taken against the nearer true end: a path that stays at the start for its first half and at the
+    # end for its second has the ends' edge lengths everywhere (0), the blend between two bodies does not
+    halves = np.concatenate([np.repeat(V[:1], 6, 0), np.repeat(V[1:2], 5, 0)])
+    assert apps.path_metrics(halves, truth, coll.faces)["distortion"] < 1e-12 < m["distortion"]
+    assert apps.path_metrics(halves[::-1], truth, coll.faces)["distortion"] > 0.5 * m["distortion"]
+    # right ends, wrong middle: only the in-between error sees it
+    detour = truth.copy()
+    detour[1:-1] *= [1.0, 1.0, 1.2]
+    d = apps.path_metrics(detour, truth, coll.faces)
+    assert d["endpoint_d_R"] < 1e-20 and d["d_R_truth"] > 1e-4
+    still = apps.path_metrics(np.repeat(V[:1], 11, 0), truth, coll.faces)  # a path that never moves
+    assert np.isnan(still["smoothness"])
 
 
 # -- ground truth from the generator (the quick humans) ---------------------------------------------------
@@ -230,11 +258,56 @@ def test_quadruples_put_subjects_and_poses_in_their_roles(humans):
     pose = apps.analogy_quadruples(humans, "pose", 6)
     body = apps.analogy_quadruples(humans, "body", 6)
     assert len(pose) == len(body) == 6 and pose.A.shape == (6, *humans.vertices.shape[1:])
+    unseen = humans.params["phenotypes"][humans.indices("test_subjects")]
+    controls = humans.params["controls"]
+    for Q, roles in ((pose, dict(A=(0, 0), B=(0, 1), C=(1, 0), X=(1, 1))),
+                     (body, dict(A=(0, 0), B=(1, 0), C=(0, 1), X=(1, 1)))):  # (subject a|b, pose p|q)
+        assert np.all(humans.split[Q.poses] == "test")  # poses of held-out sequences only ...
+        assert all(np.any(np.all(np.isclose(unseen, s), axis=1)) for s in Q.phenotypes.reshape(-1, 6))  # unseen bodies
+        assert np.all(Q.phenotypes[:, 0] != Q.phenotypes[:, 1]).any(axis=-1).all()
+        for role, (s, p) in roles.items():
+            again = generators.generate_shapes(humans, Q.phenotypes[:, s], controls[Q.poses[:, p]])
+            np.testing.assert_allclose(getattr(Q, role), again, atol=1e-9, err_msg=role)
     # edge lengths follow the subject, not the pose: X shares its subject with C (pose) or with B (body)
     assert np.all(d_E(pose.C, pose.X, humans.faces) < d_E(pose.A, pose.X, humans.faces))
     assert np.all(d_E(body.B, body.X, humans.faces) < d_E(body.A, body.X, humans.faces))
     assert not np.allclose(pose.A, body.A)  # independent draws per kind
     np.testing.assert_array_equal(apps.analogy_quadruples(humans, "pose", 6).X, pose.X)  # seeded
+
+
+def test_pose_paths_move_one_unseen_subject_between_test_poses(humans):
+    from opnet.metrics import d_E
+
+    P = apps.interpolation_paths(humans, "pose", 3, steps=4)
+    assert P.truth.shape == (3, 4, *humans.vertices.shape[1:])
+    # one body along each path (edge lengths barely change), which is none of the training bodies
+    assert np.all(d_E(P.truth[:, 0], P.truth[:, -1], humans.faces) < 0.03)  # two bodies differ by ~0.05
+    train = humans.vertices[humans.indices("train")].astype(np.float64)
+    assert min(opnet.d_R(train, np.broadcast_to(P.truth[0, 0], train.shape))) > 1e-6
+    assert not np.allclose(P.truth[:, 0], P.truth[:, -1])
+
+
+def test_widgets_follow_their_controls(humans):
+    from opnet import widgets
+
+    alg = _vertex_algebra(humans)
+    box = widgets.interpolation_explorer(humans, [alg], steps=3)
+    first = box.image.value
+    assert box.titles == ["vertices, t = 0.5"]
+    box.children[1].children[1].value = 1.0  # the slider
+    assert box.titles == ["vertices, t = 1.0"] and box.image.value != first
+    box.children[1].children[0].value = ()  # no method: the two ends
+    assert box.titles == ["start", "end"]
+    box = widgets.analogy_explorer(humans, [alg])
+    assert box.titles[:4] == ["A", "B", "C", "true X"]  # a pose transfer: its answer is known
+    a_subject, b_subject, c_subject = box.controls[0], box.controls[2], box.controls[4]
+    b_subject.value, c_subject.value = c_subject.value, a_subject.value  # A, C one subject; B another: still known
+    assert "true X" in box.titles
+    b_pose, c_pose = box.controls[3], box.controls[5]
+    c_pose.value = b_pose.options[1]
+    b_subject.value = a_subject.value
+    b_pose.value = b_pose.options[2]  # A, B, C: one subject; three different poses: no known answer
+    assert "true X" not in box.titles
 
 
 def test_benchmarks_rows(humans):
@@ -243,7 +316,7 @@ def test_benchmarks_rows(humans):
     alg = _vertex_algebra(humans)
     rows = apps.interpolation_benchmark(humans, [alg], P, progress=False)
     assert [r["method"] for r in rows] == ["Ground truth", "vertices"]
-    assert rows[0]["d_R_truth"] == 0 and rows[1]["endpoint_d_R"] < 1e-20  # vertex lerp keeps the ends
+    assert rows[1]["endpoint_d_R"] < 1e-20  # vertex lerp keeps the ends
     assert rows[1]["d_R_truth"] > 0  # ... but is not the generator's in-between body
     Q = apps.analogy_quadruples(humans, "pose", 3)
     row = apps.analogy_benchmark(humans, [alg], Q, progress=False)[0]

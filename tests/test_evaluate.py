@@ -132,3 +132,10 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatc
     assert "## Applications" in md and "PointNet AE / OperatorNet" in md and "smoothness" in md
     for name in ("interpolation_pose", "interpolation_body", "analogy_pose", "analogy_body"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
+    assert all(np.isfinite(r["d_R_before"]) for r in ana if "refinement" in r["method"])
+    latest = tmp_path / "runs" / "table1-pointnet" / "latest.pt"
+    mtime = latest.stat().st_mtime
+    again = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False,
+                                figures=False, refine=False)
+    assert latest.stat().st_mtime == mtime  # the finished PointNet run is reused, not retrained
+    assert "OperatorNet (mult.) + refinement" not in {r["method"] for r in again if r["table"] == "analogy"}
