@@ -52,11 +52,12 @@ class Budget:
     pointnet_epochs: int = 60
     analogies: int = 100  # analogy questions per kind
     paths: int = 10  # interpolation paths per kind
+    apps_refine_shapes: int = 24  # shapes per kind the applications refine (seconds each)
 
 
 BUDGETS = {
     "quick": Budget(epochs=80, ablation_epochs=6, batch_size=16, refine_steps=30, refine_shapes=12, pointnet_epochs=40,
-                    analogies=24, paths=4),
+                    analogies=24, paths=4, apps_refine_shapes=6),
     "default": Budget(epochs=60, ablation_epochs=12),
     "paper": Budget(epochs=100, ablation_epochs=25),
 }
@@ -238,7 +239,7 @@ def run_path(out, table: str, channels, depth: int = 1, variant: str = "paper") 
 def application_methods(coll, nets: dict, budget: Budget, *, refine: bool = True, device="cpu") -> list:
     """The applications' methods (:class:`opnet.apps.ShapeAlgebra`): Table 1's OperatorNet (Int+Ext) with the
     multiplicative and the linear algebra, our variant, the first + refinement (:data:`REFINE`, at most
-    ``budget.refine_shapes`` shapes per kind), the PointNet AE and NN. ``nets``: Table 1's name → network."""
+    ``budget.apps_refine_shapes`` shapes per kind), the PointNet AE and NN. ``nets``: Table 1's name → network."""
     from . import apps
 
     paper, ours = nets["OperatorNet (Int+Ext)"], nets[next(iter(OURS))]
@@ -246,7 +247,7 @@ def application_methods(coll, nets: dict, budget: Budget, *, refine: bool = True
                apps.operatornet_algebra(ours, coll, name="OperatorNet ours (mult.)")]
     if refine:
         methods.append(apps.operatornet_algebra(paper, coll, refine=dict(REFINE, steps=budget.refine_steps, device=device),
-                                                max_shapes=budget.refine_shapes))
+                                                max_shapes=budget.apps_refine_shapes))
     return methods + [apps.pointnet_algebra(nets[POINTNET], coll), apps.nearest_neighbour_algebra(coll)]
 
 

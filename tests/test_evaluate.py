@@ -117,7 +117,7 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch):
 def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatch):
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: humans)
     budget = reproduce.Budget(epochs=1, ablation_epochs=1, batch_size=64, hidden=16, refine_steps=2, refine_shapes=4,
-                              pointnet_epochs=1, analogies=5, paths=2)
+                              pointnet_epochs=1, analogies=5, paths=2, apps_refine_shapes=4)
     rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False)
     assert {r["method"] for r in rows if r["table"] == "table1"} >= {reproduce.POINTNET}
     assert (tmp_path / "runs" / "table1-pointnet" / "best.pt").is_file()
