@@ -37,7 +37,7 @@ import numpy as np
 
 from .algebra import analogy as operator_analogy
 from .algebra import interpolate as operator_interpolate
-from .evaluate import _OperatorIndex, _select, predict, shape_errors
+from .evaluate import _check_max_shapes, _OperatorIndex, _select, predict, shape_errors, summarize
 from .metrics import d_E, d_R, rigid_align
 from .shape_difference import KINDS, shape_differences
 
@@ -79,8 +79,7 @@ class ShapeAlgebra:
             raise ValueError(f"space must be 'operators' or 'latent', got {self.space!r}.")
         if self.scheme not in SCHEMES:
             raise ValueError(f"scheme must be one of {SCHEMES}, got {self.scheme!r}.")
-        if self.max_shapes is not None and (not _is_index(self.max_shapes) or self.max_shapes < 1):
-            raise ValueError(f"max_shapes must be a positive integer or None, got {self.max_shapes!r}.")
+        _check_max_shapes(self.max_shapes)
 
     def shapes(self, shapes) -> np.ndarray:
         """Vertices ``(B, n, 3)`` float64 of indices into the collection or of vertex arrays ``(n, 3)`` / ``(B, n, 3)``."""
@@ -388,7 +387,7 @@ def analogy_benchmark(collection, methods, quadruples, *, progress: bool | None 
             X = m.analogy(Q.A[:q], Q.B[:q], Q.C[:q])
             err = shape_errors(Q.X[:q], X, collection.faces)
             row = dict(method=m.name, kind=Q.kind, n=int(q), scheme=m.scheme if m.space == "operators" else "latent")
-            row.update(_summary(err))
+            row.update(summarize(err))
             row["d_R_direct"] = float(np.mean(d_R(Q.X[:q], m.reconstruct(Q.X[:q]))))
             if m.unrefined is not None:
                 row["d_R_before"] = float(np.mean(d_R(Q.X[:q], m.unrefined.analogy(Q.A[:q], Q.B[:q], Q.C[:q]))))
@@ -396,13 +395,6 @@ def analogy_benchmark(collection, methods, quadruples, *, progress: bool | None 
             bar.update(1)
     bar.close()
     return rows
-
-
-def _summary(err: dict) -> dict:
-    out = {}
-    for key, values in err.items():
-        out[key], out[f"{key}_median"] = float(np.mean(values)), float(np.median(values))
-    return out
 
 
 def path_metrics(path, truth, faces) -> dict:

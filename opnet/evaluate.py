@@ -34,7 +34,7 @@ from .shape_difference import KINDS
 
 __all__ = ["TEST_SETS", "Method", "test_set_indices", "channel_label", "predict", "operatornet_method", "pointnet_method",
            "nearest_neighbour", "nearest_neighbour_method", "base_shape_method", "geometric_method", "refined_method",
-           "shape_errors", "vertex_errors",
+           "shape_errors", "summarize", "vertex_errors",
            "evaluate"]
 
 TEST_SETS = ("eval_subset", "test", "test_subjects")
@@ -77,9 +77,13 @@ class Method:
     max_shapes: int | None = None
 
     def __post_init__(self):
-        if self.max_shapes is not None and (not isinstance(self.max_shapes, (int, np.integer))
-                                            or isinstance(self.max_shapes, bool) or self.max_shapes < 1):
-            raise ValueError(f"max_shapes must be a positive integer or None, got {self.max_shapes!r}.")
+        _check_max_shapes(self.max_shapes)
+
+
+def _check_max_shapes(value) -> None:
+    """``max_shapes`` of a method (here and in :class:`opnet.apps.ShapeAlgebra`): a positive integer or ``None``."""
+    if value is not None and (not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1):
+        raise ValueError(f"max_shapes must be a positive integer or None, got {value!r}.")
 
 
 def predict(net, operators, *, batch_size: int = 256) -> np.ndarray:
@@ -210,6 +214,14 @@ def vertex_errors(gt, recon) -> np.ndarray:
     return np.linalg.norm(rigid_align(recon, gt) - np.asarray(gt, dtype=np.float64), axis=-1)
 
 
+def summarize(errors: dict) -> dict:
+    """Mean and median of per-shape errors (:func:`shape_errors`): keys ``d_R``, ``d_R_median``, ``d_V``, ..."""
+    out = {}
+    for key, values in errors.items():
+        out[key], out[f"{key}_median"] = float(np.mean(values)), float(np.median(values))
+    return out
+
+
 def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = None) -> list[dict]:
     """One row per (method, test set): ``method``, ``channels``, ``depth``, ``split``, ``n_shapes``,
     ``seconds_per_shape`` (the method's wall time over the set, per shape) and the mean and median of ``d_R``
@@ -231,8 +243,5 @@ def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = N
             err = shape_errors(collection.vertices[idx], recon, collection.faces)
             row = dict(method=m.name, channels=",".join(m.channels), depth=m.depth, split=ts, n_shapes=int(len(idx)),
                        seconds_per_shape=seconds)
-            for key, values in err.items():
-                row[key] = float(np.mean(values))
-                row[f"{key}_median"] = float(np.median(values))
-            rows.append({**row, **m.info, **(extra or {})})
+            rows.append({**row, **summarize(err), **m.info, **(extra or {})})
     return rows

@@ -129,11 +129,10 @@ def plot_reconstructions(gt, reconstructions: dict, faces, *, titles=None, clim=
     faces : (m, 3) shared triangles.
     titles : list of N str, optional, a caption per row (e.g. the shape's sequence).
     """
-    from .metrics import rigid_align
-
     gt = np.asarray(gt, dtype=np.float64)
-    aligned = {name: rigid_align(np.asarray(r, np.float64), gt) for name, r in reconstructions.items()}
-    errors = {name: np.linalg.norm(a - gt, axis=-1) for name, a in aligned.items()}
+    aligned, errors = {}, {}
+    for name, r in reconstructions.items():
+        aligned[name], errors[name] = _aligned_errors(r, gt)
     vmax = max(float(e.max()) for e in errors.values()) if clim is None else None
     clim = clim or (0.0, vmax)
     meshes, scalars, labels = [], [], []

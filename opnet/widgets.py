@@ -74,15 +74,14 @@ def _default_shapes(collection) -> dict:
 
 def _with_errors(shapes: dict, truth):
     """Titles and per-vertex errors of shapes aligned onto ``truth`` (or plain shapes when there is none)."""
-    from .metrics import rigid_align
+    from .plotting import _aligned_errors
 
     names, meshes, scalars = [], [], []
     for name, V in shapes.items():
         if truth is None:
             names.append(name), meshes.append(V), scalars.append(None)
             continue
-        A = rigid_align(V, truth)
-        err = np.linalg.norm(A - truth, axis=-1)
+        A, err = _aligned_errors(V, truth)
         names.append(f"{name}: {1000 * err.mean():.1f} mm"), meshes.append(A), scalars.append(err)
     return names, meshes, scalars
 
