@@ -10,6 +10,8 @@ Public API::
     G     = opnet.gram_matrix(basis, X);  Y = opnet.recover_embedding(G, basis)
     Dt    = opnet.interpolate(D0, D1, t, scheme="multiplicative" | "linear")
     DX    = opnet.analogy(DA, DB, DC)          # D_X = D_C D_A⁺ D_B
+    D     = opnet.encode(any_mesh, base_basis, fmap="computed")   # (3, k, k) through a computed map (pyFM)
+    X     = opnet.decode(net, D)                 # (n, 3) on the base's triangulation
     net   = opnet.OperatorNet(n_vertices, k=60)  # (B, 3, k, k) -> (B, n, 3); loss: opnet.rigid_alignment_loss
     net, history = opnet.train.fit(collection, channels=KINDS, depth=1, epochs=50, run_dir="runs/x")
     rows  = opnet.evaluate.evaluate(collection, [opnet.evaluate.operatornet_method(net, collection)])
@@ -19,13 +21,14 @@ Public API::
     alg   = opnet.apps.operatornet_algebra(net, collection)   # .interpolate(i, j, t), .analogy(a, b, c) as shapes
     opnet.widgets.show(opnet.widgets.interpolation_explorer(collection, [alg]))   # JupyterLab widgets
 
-The modules ``train``, ``evaluate``, ``reproduce``, ``model``, ``torch_ops``, ``geometric`` (home of
-``reconstruct``), ``apps`` and ``widgets`` use torch or the notebook stack, so they load on first use.
+The modules ``train``, ``evaluate`` (home of ``decode``), ``reproduce``, ``model``, ``torch_ops``, ``geometric``
+(home of ``reconstruct``), ``apps`` and ``widgets`` use torch or the notebook stack, so they load on first use.
 """
 from . import data
 from .algebra import analogy, interpolate, log_difference, relative_difference
 from .fmaps import FunctionalMap, fmap_from_p2p, fmap_from_soft_map, identity_fmap
 from .gram import gram_matrix, recover_embedding
+from .matching import SurfaceMap, compute_map, encode
 from .inner_products import (
     INNER_PRODUCTS,
     AreaInnerProduct,
@@ -50,6 +53,7 @@ __all__ = [
     "INNER_PRODUCTS", "get_inner_product",
     "KINDS", "shape_difference", "shape_differences", "distortion_function", "pinv_psd",
     "gram_matrix", "recover_embedding",
+    "matching", "SurfaceMap", "compute_map", "encode", "decode",
     "interpolate", "analogy", "relative_difference", "log_difference",
     "kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume",
     "OperatorNet", "rigid_alignment_loss", "reconstruct", "model", "train", "evaluate", "reproduce", "torch_ops",
@@ -64,6 +68,8 @@ def __getattr__(name):  # import torch only when the network is asked for
 
     if name in ("OperatorNet", "rigid_alignment_loss"):
         return getattr(importlib.import_module(".model", __name__), name)
+    if name == "decode":
+        return importlib.import_module(".evaluate", __name__).decode
     if name == "reconstruct":
         return importlib.import_module(".geometric", __name__).reconstruct
     if name in _TORCH_MODULES:

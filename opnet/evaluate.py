@@ -32,7 +32,7 @@ from .mesh import edge_face_counts
 from .metrics import d_E, d_R, d_V, rigid_align
 from .shape_difference import KINDS
 
-__all__ = ["TEST_SETS", "Method", "test_set_indices", "channel_label", "predict", "operatornet_method", "pointnet_method",
+__all__ = ["TEST_SETS", "Method", "decode", "test_set_indices", "channel_label", "predict", "operatornet_method", "pointnet_method",
            "nearest_neighbour", "nearest_neighbour_method", "base_shape_method", "geometric_method", "refined_method",
            "shape_errors", "summarize", "vertex_errors",
            "evaluate"]
@@ -101,6 +101,37 @@ def predict(net, operators, *, batch_size: int = 256) -> np.ndarray:
             x = torch.as_tensor(np.asarray(operators[s:s + batch_size], dtype=np.float32), device=device)
             out.append(net(x).double().cpu().numpy())
     return np.concatenate(out) if out else np.zeros((0, net.n_vertices, 3))
+
+
+def decode(net, operators, kinds=KINDS) -> np.ndarray:
+    """Shapes from shape differences: vertices ``(n, 3)`` (or ``(B, n, 3)``) on the base's triangulation, float64.
+
+    ``operators`` ``(C, k, k)`` or ``(B, C, k, k)`` (numpy or torch), whose channels are ``kinds`` in order
+    (:func:`opnet.encode`'s default: all three). The network's own channels are picked from them, so one
+    encoding serves networks of any channel subset. The output is in the network's frame: shape
+    differences do not see rigid motions, so align it (:func:`opnet.rigid_align`) before comparing.
+    """
+    if not hasattr(net, "channels") or not hasattr(net, "k"):
+        raise TypeError(f"net must be an OperatorNet (opnet.train.load_model(run_dir)), got {type(net).__name__}.")
+    if hasattr(operators, "detach"):
+        operators = operators.detach().cpu().numpy()
+    ops = np.asarray(operators)
+    if ops.dtype.kind not in "fiu":
+        raise TypeError(f"operators must be real numbers, got dtype {ops.dtype}.")
+    kinds = tuple(kinds)
+    single = ops.ndim == 3
+    batch = ops[None] if single else ops
+    if batch.ndim != 4 or batch.shape[1:] != (len(kinds), net.k, net.k):
+        raise ValueError(f"operators must be (C, k, k) or (B, C, k, k) with C = {len(kinds)} channels {kinds} and "
+                         f"k = {net.k} (the network's), got shape {ops.shape}.")
+    missing = [c for c in net.channels if c not in kinds]
+    if missing:
+        raise ValueError(f"the network reads {missing}, which the operators (channels {kinds}) do not hold; "
+                         "encode them with kinds=net.channels or all of opnet.KINDS.")
+    if not np.isfinite(batch).all():
+        raise ValueError("operators contain NaN or infinite values.")
+    out = predict(net, batch[:, [kinds.index(c) for c in net.channels]])
+    return out[0] if single else out
 
 
 def _select(channels) -> list[int]:

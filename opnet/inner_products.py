@@ -12,7 +12,9 @@ and implement :meth:`InnerProduct.project` to add a new one::
             return F @ F.T
 
 Override :meth:`InnerProduct.project_batch` as well when a vectorised form over many
-shapes with the same faces exists (the three built-ins do).
+shapes with the same faces exists (the three built-ins do), and :meth:`InnerProduct.pull_back` when
+the inner product has a better form on a mesh of another triangulation than the default
+``(P Φ)ᵀ M (P Φ)`` (area and extrinsic lump their masses, as the fast path does).
 """
 from __future__ import annotations
 
@@ -78,6 +80,17 @@ class InnerProduct:
         """``Φᵀ M_b Φ`` ``(B, k, k)`` for shapes ``(B, n, 3)`` sharing ``faces``; loops :meth:`project` by default."""
         return np.stack([self.project(v, faces, evecs) for v in vertices])
 
+    def pull_back(self, vertices: np.ndarray, faces: np.ndarray, to_base, evecs: np.ndarray) -> np.ndarray:
+        """``(P Φ)ᵀ M (P Φ)`` ``(k, k)``: this inner product of a mesh with another triangulation, on base functions.
+
+        ``vertices`` ``(n_mesh, 3)`` and ``faces`` are the mesh's, ``Φ`` ``(n_base, k)`` base functions and
+        ``P`` ``(n_mesh, n_base)`` a soft map (row-stochastic, e.g. barycentric): mesh vertex ``p`` lies at
+        the base point ``P[p] @ base_vertices``, so ``P Φ`` are the base functions carried onto the mesh.
+        This is the paper's ``Cᵀ K_i C`` with a full target basis (``C = Φ_iᵀ A_i P Φ_0``), and the fast path
+        when ``P`` is the identity.
+        """
+        return self.project(vertices, faces, to_base @ evecs)
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r})"
 
@@ -91,6 +104,15 @@ class AreaInnerProduct(InnerProduct):
         return _weighted_gram(evecs, vertex_areas(vertices, faces))
 
     project_batch = project
+
+    def pull_back(self, vertices, faces, to_base, evecs):
+        """The mesh's lumped masses carried onto the base vertices, ``Φᵀ diag(Pᵀ a) Φ``.
+
+        This is ``(P Φ)ᵀ A (P Φ)`` lumped by rows, as the fast path's mass is lumped; it is exact for
+        the identity map and, unlike the unlumped form, does not shrink the high frequencies that a
+        barycentric ``P`` averages.
+        """
+        return _weighted_gram(evecs, to_base.T @ vertex_areas(vertices, faces))
 
 
 class ConformalInnerProduct(InnerProduct):
@@ -118,19 +140,34 @@ class ExtrinsicInnerProduct(InnerProduct):
     name = "extrinsic"
 
     def project(self, vertices, faces, evecs):
-        a = vertex_areas(vertices, faces)  # (..., n)
-        # distances are translation invariant: centring first avoids cancellation
-        v = vertices - (a[..., None] * vertices).sum(-2, keepdims=True) / a.sum(-1)[..., None, None]
-        u = a * np.einsum("...ni,...ni->...n", v, v)
-        y = a[..., None] * v  # (..., n, 3)
-        rowsum = u * a.sum(-1, keepdims=True) + a * u.sum(-1, keepdims=True) - 2 * np.einsum(
-            "...ni,...i->...n", y, y.sum(-2)
-        )
-        pa, pu, py = evecs.T @ a[..., None], evecs.T @ u[..., None], evecs.T @ y  # (..., k, 1|3)
-        low_rank = pu @ np.swapaxes(pa, -1, -2) + pa @ np.swapaxes(pu, -1, -2) - 2 * py @ np.swapaxes(py, -1, -2)
-        return _weighted_gram(evecs, rowsum) - low_rank
+        return _extrinsic_gram(evecs, vertex_areas(vertices, faces), vertices)
 
     project_batch = project
+
+    def pull_back(self, vertices, faces, to_base, evecs):
+        """Lumped, like the area's: masses ``Pᵀ a`` on the base vertices, at the mass-weighted mean position
+        of the mesh points that land around each (a base vertex that receives no mass has no weight)."""
+        a = vertex_areas(vertices, faces)
+        mass = to_base.T @ a
+        moment = to_base.T @ (a[:, None] * vertices)
+        where = mass > 0
+        positions = np.zeros_like(moment)
+        positions[where] = moment[where] / mass[where, None]
+        return _extrinsic_gram(evecs, mass, positions)
+
+
+def _extrinsic_gram(evecs: np.ndarray, a: np.ndarray, vertices: np.ndarray) -> np.ndarray:
+    """``Φᵀ E^D Φ`` for masses ``a`` ``(..., n)`` at positions ``(..., n, 3)`` (the extrinsic inner product)."""
+    # distances are translation invariant: centring first avoids cancellation
+    v = vertices - (a[..., None] * vertices).sum(-2, keepdims=True) / a.sum(-1)[..., None, None]
+    u = a * np.einsum("...ni,...ni->...n", v, v)
+    y = a[..., None] * v  # (..., n, 3)
+    rowsum = u * a.sum(-1, keepdims=True) + a * u.sum(-1, keepdims=True) - 2 * np.einsum(
+        "...ni,...i->...n", y, y.sum(-2)
+    )
+    pa, pu, py = evecs.T @ a[..., None], evecs.T @ u[..., None], evecs.T @ y  # (..., k, 1|3)
+    low_rank = pu @ np.swapaxes(pa, -1, -2) + pa @ np.swapaxes(pu, -1, -2) - 2 * py @ np.swapaxes(py, -1, -2)
+    return _weighted_gram(evecs, rowsum) - low_rank
 
 
 INNER_PRODUCTS = {ip.name: ip for ip in (AreaInnerProduct(), ConformalInnerProduct(), ExtrinsicInnerProduct())}

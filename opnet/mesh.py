@@ -15,7 +15,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 __all__ = ["Mesh", "MeshError", "load_mesh", "unique_edges", "edge_face_counts", "face_areas", "degenerate_faces",
-           "farthest_first", "furthest_vertices"]
+           "farthest_first", "furthest_vertices", "vertex_faces", "closest_points_on_faces"]
 
 _LOADABLE = (".ply", ".obj", ".off", ".stl")
 
@@ -43,6 +43,56 @@ def furthest_vertices(vertices, n: int) -> np.ndarray:
     """Indices of ``n`` vertices ``(n_vertices, 3)`` spread over the shape by farthest-first sampling (Euclidean)."""
     vertices = np.asarray(vertices, dtype=np.float64)
     return farthest_first(lambda i: np.linalg.norm(vertices - vertices[i], axis=1), n)
+
+
+def vertex_faces(faces: np.ndarray, n: int) -> np.ndarray:
+    """The faces around each vertex, ``(n, max_degree)`` int64 padded with ``-1``."""
+    corner_vertex = faces.ravel()
+    order = np.argsort(corner_vertex, kind="stable")
+    counts = np.bincount(corner_vertex, minlength=n)
+    slot = np.arange(faces.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    table = np.full((n, max(int(counts.max()), 1)), -1, dtype=np.int64)
+    table[corner_vertex[order], slot] = order // 3
+    return table
+
+
+def closest_points_on_faces(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
+                            near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The closest point to each of ``points`` ``(m, d)`` among the faces around its ``near`` vertices.
+
+    ``vertices`` ``(n, d)`` may live in any dimension ``d`` (3-D space, or a spectral embedding); ``near``
+    ``(m, r)`` are, for each point, ``r`` mesh vertices close to it (e.g. its nearest ones), whose faces are
+    the candidates. Returns the face ``(m,)`` and barycentric coordinates ``(m, 3)`` of each closest point.
+    Every candidate triangle is solved exactly (interior, else the nearest of its three edges), all points
+    at once: pyFM's ``project_pc_to_triangles`` does the same one point at a time.
+    """
+    table = vertex_faces(faces, len(vertices))
+    cand = table[np.asarray(near).reshape(len(points), -1)].reshape(len(points), -1)  # (m, c)
+    valid = cand >= 0
+    cand = np.where(valid, cand, cand[:, :1])
+    corners = [vertices[faces[cand, j]] for j in range(3)]  # 3 × (m, c, d)
+    x = points[:, None, :]
+    a, b, c = corners
+    e0, e1, rel = b - a, c - a, x - a
+    g00, g01, g11 = (e0 * e0).sum(-1), (e0 * e1).sum(-1), (e1 * e1).sum(-1)
+    r0, r1 = (e0 * rel).sum(-1), (e1 * rel).sum(-1)
+    det = np.maximum(g00 * g11 - g01**2, np.finfo(float).tiny)
+    s, t = (g11 * r0 - g01 * r1) / det, (g00 * r1 - g01 * r0) / det
+    bary = np.stack([1 - s - t, s, t], -1)
+    inside = (s >= 0) & (t >= 0) & (s + t <= 1)
+    dist = np.where(inside, np.sum((rel - s[..., None] * e0 - t[..., None] * e1) ** 2, -1), np.inf)
+    for i, j in ((0, 1), (1, 2), (2, 0)):  # the edges, for points whose projection falls outside
+        d = corners[j] - corners[i]
+        u = np.clip(np.sum((x - corners[i]) * d, -1) / np.maximum((d * d).sum(-1), np.finfo(float).tiny), 0, 1)
+        du = np.sum((x - corners[i] - u[..., None] * d) ** 2, -1)
+        better = du < dist
+        edge = np.zeros_like(bary)
+        edge[..., i], edge[..., j] = 1 - u, u
+        bary = np.where(better[..., None], edge, bary)
+        dist = np.where(better, du, dist)
+    best = np.where(valid, dist, np.inf).argmin(1)
+    rows = np.arange(len(points))
+    return cand[rows, best], bary[rows, best]
 
 
 def face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
