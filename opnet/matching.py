@@ -10,8 +10,8 @@ conventions are opnet's: ``FM_12`` ``(k_mesh, k_base)`` carries base coefficient
 1. Both eigenbases are opnet's (:func:`opnet.eigenbasis`), handed to pyFM's ``TriMesh``.
 2. WKS descriptors, and a functional-map solve with descriptor preservation, Laplacian and
    descriptor commutativity, and the orientation-preserving term of Ren et al. (2018). A body is
-   left–right symmetric and WKS cannot tell its sides apart: without that term every one of six
-   test bodies mapped onto its mirror image (`benchmarks/matching.py`); with it none did.
+   left–right symmetric and WKS cannot tell its sides apart: without that term the maps of posed
+   bodies are wrong or mirrored, with it none is mirrored (``benchmarks/matching.py`` counts them).
 3. ZoomOut (Melzi et al. 2019) from ``k_init`` to ``k`` functions.
 4. A precise map (Ezuz & Ben-Chen 2017): each mesh vertex is projected onto a base triangle in the
    spectral embedding, giving barycentric coordinates: the sparse soft map ``to_base``

@@ -122,10 +122,12 @@ def _generated(collection) -> str:
     return name
 
 
-def generate_shapes(collection, phenotypes, controls) -> np.ndarray:
+def generate_shapes(collection, phenotypes, controls, *, resolution: str | None = None) -> np.ndarray:
     """New shapes of a generated collection's kind, on its mesh: vertices ``(N, n, 3)`` float64 (metres).
 
-    ``phenotypes`` ``(N, 6)`` and ``controls`` ``(N, ...)`` are generator parameters like the collection's own
+    ``resolution`` (humans: a key of :data:`opnet.data.bodies.RESOLUTIONS`) gives the same shapes on another
+    triangulation instead, whose faces are ``bodies.human_faces(resolution)``: the 2k and 5k meshes that
+    :mod:`opnet.matching` maps onto a 1k base. ``phenotypes`` ``(N, 6)`` and ``controls`` ``(N, ...)`` are generator parameters like the collection's own
     ``params["phenotypes"]`` and ``params["controls"]`` (body or hand poses ``(bones, 4, 4)``, or facial
     expression weights): mixing one shape's body with another's pose gives a shape the collection does not hold,
     with its ground truth (the analogy benchmark of :mod:`opnet.apps`).
@@ -136,7 +138,12 @@ def generate_shapes(collection, phenotypes, controls) -> np.ndarray:
     if phenotypes.ndim != 2 or controls.shape[1:] != expected or len(controls) != len(phenotypes):
         raise ValueError(f"phenotypes must be (N, {len(bodies.PHENOTYPES)}) and controls (N, {', '.join(map(str, expected))}) "
                          f"with the same N, got {phenotypes.shape} and {controls.shape}.")
-    return _evaluator(name, collection.meta.get("resolution"))(phenotypes, controls)
+    if resolution is None:
+        resolution = collection.meta.get("resolution")
+    elif name != "humans" or resolution not in bodies.RESOLUTIONS:
+        raise ValueError(f"resolution applies to the humans, one of {list(bodies.RESOLUTIONS)}; got {resolution!r} "
+                         f"for the {name}.")
+    return _evaluator(name, resolution)(phenotypes, controls)
 
 
 def interpolate_controls(collection, c0, c1, t) -> np.ndarray:
