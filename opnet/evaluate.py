@@ -118,7 +118,11 @@ def decode(net, operators, kinds=KINDS) -> np.ndarray:
     ops = np.asarray(operators)
     if ops.dtype.kind not in "fiu":
         raise TypeError(f"operators must be real numbers, got dtype {ops.dtype}.")
-    kinds = tuple(kinds)
+    if isinstance(kinds, str):
+        raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
+    from .inner_products import get_inner_product
+
+    kinds = tuple(get_inner_product(k).name for k in kinds)
     single = ops.ndim == 3
     batch = ops[None] if single else ops
     if batch.ndim != 4 or batch.shape[1:] != (len(kinds), net.k, net.k):

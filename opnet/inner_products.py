@@ -146,7 +146,10 @@ class ExtrinsicInnerProduct(InnerProduct):
 
     def pull_back(self, vertices, faces, to_base, evecs):
         """Lumped, like the area's: masses ``Pᵀ a`` on the base vertices, at the mass-weighted mean position
-        of the mesh points that land around each (a base vertex that receives no mass has no weight)."""
+        of the mesh points that land around each (a base vertex that receives no mass has no weight).
+
+        Unlike the area's, this is an approximation of ``(P Φ)ᵀ E^D (P Φ)``: the spread of the positions
+        around each mean is dropped. It is exact for the identity map."""
         a = vertex_areas(vertices, faces)
         mass = to_base.T @ a
         moment = to_base.T @ (a[:, None] * vertices)

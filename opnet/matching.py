@@ -29,7 +29,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from .fmaps import FunctionalMap
 from .mesh import Mesh, closest_points_on_faces, edge_face_counts, face_areas
+from .metrics import mesh_volume
 from .shape_difference import KINDS, _check_base, pinv_psd, shape_differences
 from .inner_products import get_inner_product
 from .spectral import Eigenbasis, eigenbasis
@@ -70,6 +72,15 @@ class SurfaceMap:
     to_base: sp.csr_matrix
     fmap: np.ndarray | None = None
 
+    def __post_init__(self):
+        _check_base(self.base)
+        _check_mesh(self.mesh)
+        shape = (self.mesh.n_vertices, self.base.mesh.n_vertices)
+        if not sp.issparse(self.to_base) or self.to_base.shape != shape:
+            raise ValueError(f"to_base must be a scipy sparse matrix of shape (n_mesh, n_base) = {shape}, got "
+                             f"{type(self.to_base).__name__} of shape {getattr(self.to_base, 'shape', None)}.")
+        object.__setattr__(self, "to_base", self.to_base.tocsr())
+
     @property
     def points(self) -> np.ndarray:
         """Where each mesh vertex lands on the base, ``(n_mesh, 3)`` in the base's coordinates."""
@@ -93,7 +104,7 @@ class SurfaceMap:
         density = (self.base.evecs @ (self.base.evecs.T @ carried)) * base.area  # smoothed, ≈ 1 where even
         coverage = float(base.mass[density >= 0.25].sum() / base.area)
         normals = _vertex_normals(base.vertices, base.faces)
-        image = self.points[self.mesh.faces]  # (m, 3, 3)
+        image = self.points[_outward_faces(self.mesh)]  # (m, 3, 3)
         turned = np.cross(image[:, 1] - image[:, 0], image[:, 2] - image[:, 0])
         reference = (self.to_base @ normals)[self.mesh.faces].sum(1)
         weight = face_areas(self.mesh.vertices, self.mesh.faces)
@@ -101,9 +112,12 @@ class SurfaceMap:
         return dict(coverage=coverage, orientation=orientation)
 
     def error(self, true_map: "SurfaceMap") -> np.ndarray:
-        """Per mesh vertex, the distance on the base between this map's image and ``true_map``'s, ``(n_mesh,)``,
-        in units of the base's ``sqrt(area)`` (the usual normalisation of map errors)."""
-        if true_map.mesh is not self.mesh and true_map.mesh.n_vertices != self.mesh.n_vertices:
+        """Per mesh vertex, the straight-line distance between this map's image on the base and ``true_map``'s,
+        ``(n_mesh,)``, in units of the base's ``sqrt(area)`` (Euclidean, not geodesic: equal for small errors,
+        smaller for large ones)."""
+        if not isinstance(true_map, SurfaceMap) or true_map.base is not self.base:
+            raise ValueError("true_map must be a SurfaceMap onto the same base_basis.")
+        if true_map.mesh.n_vertices != self.mesh.n_vertices:
             raise ValueError("true_map maps another mesh; compare maps of the same mesh.")
         return np.linalg.norm(self.points - true_map.points, axis=1) / np.sqrt(self.base.mesh.area)
 
@@ -117,9 +131,16 @@ def _vertex_normals(vertices, faces) -> np.ndarray:
     return out
 
 
+def _outward_faces(mesh: Mesh) -> np.ndarray:
+    """The mesh's faces, turned to face outwards (reversed when its enclosed volume is negative)."""
+    return mesh.faces if mesh_volume(mesh.vertices, mesh.faces) >= 0 else mesh.faces[:, ::-1]
+
+
 def _barycentric_map(face, bary, faces, n_base) -> sp.csr_matrix:
     rows = np.repeat(np.arange(len(face)), 3)
-    return sp.csr_matrix((bary.ravel(), (rows, faces[face].ravel())), shape=(len(face), n_base))
+    out = sp.csr_matrix((bary.ravel(), (rows, faces[face].ravel())), shape=(len(face), n_base))
+    out.eliminate_zeros()
+    return out
 
 
 def _check_mesh(mesh, what="mesh") -> Mesh:
@@ -154,7 +175,8 @@ def map_from_p2p(base_basis: Eigenbasis, mesh: Mesh, p2p) -> SurfaceMap:
 
 
 def closest_point_map(base_basis: Eigenbasis, mesh: Mesh) -> SurfaceMap:
-    """Each mesh vertex onto the closest point of the base surface, in 3-D.
+    """Each mesh vertex onto the closest point of the base surface, in 3-D (among the faces around its three
+    nearest base vertices).
 
     Right for two triangulations of one shape in one place (the generator's 1k, 2k and 5k meshes of
     the base, say): it is the true map that computed maps are measured against.
@@ -185,9 +207,8 @@ def compute_map(base_basis: Eigenbasis, mesh: Mesh, *, k: int = 100, k_init: int
     base_basis : Eigenbasis
         The base's eigenbasis (the one the operators use).
     mesh : Mesh
-        A closed surface of the base's kind (a body for the human base), placed and scaled anyhow:
-        everything here is intrinsic but the orientation term, which only needs consistently
-        oriented faces.
+        A closed surface of the base's kind (a body for the human base), placed, scaled and oriented
+        anyhow: it is matched at the base's total area, with its faces turned outwards.
     k : int
         Functions on each side at the end of ZoomOut (100 is about where the map stops improving
         on the 1k-vertex human base).
@@ -219,13 +240,16 @@ def compute_map(base_basis: Eigenbasis, mesh: Mesh, *, k: int = 100, k_init: int
     if spectrum.mesh is not base_basis.mesh or spectrum.k < k:
         raise ValueError(f"base_spectrum must be eigenbasis(base_basis.mesh, k) with at least k={k} functions.")
     spectrum = spectrum.truncate(k)
-    target = eigenbasis(mesh, k)
+    scale = np.sqrt(base_basis.mesh.area / mesh.area)  # descriptors and the solve's weights depend on scale
+    target = eigenbasis(Mesh(mesh.vertices * scale, _outward_faces(mesh)), k)
     problem = FunctionalMapping(_pyfm_mesh(spectrum), _pyfm_mesh(target))
     problem.preprocess(n_descr=100, descr_type="WKS", k_process=k, subsample_step=5, k_descr=k)
     problem.fit(K=(k_init, k_init), w_descr=1.0, w_lap=1e-2, w_dcomm=1e-1, w_orient=1.0 if orientation else 0.0)
+    C = problem.FM_12
     step = 4
-    nit = (k - k_init) // step
-    C = problem.zoomout_refine(nit=nit, step=step) if nit else problem.FM_12
+    for nit, size in (((k - k_init) // step, step), (1, (k - k_init) % step)):  # ZoomOut ends at exactly k
+        if nit and size:
+            C = problem.zoomout_refine(C, nit=nit, step=size)
     C = np.asarray(C)
     # the precise map (adjoint form): mesh vertex p ↦ a point of a base triangle, in the spectral embedding
     base_emb, mesh_emb = spectrum.evecs[:, :C.shape[1]], target.evecs[:, :C.shape[0]] @ C
@@ -245,6 +269,8 @@ def operators_through_map(surface_map: SurfaceMap, kinds=KINDS) -> np.ndarray:
         raise TypeError(f"surface_map must be an opnet.matching.SurfaceMap, got {type(surface_map).__name__}.")
     if isinstance(kinds, str):
         raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
+    if len(kinds) == 0:
+        raise ValueError("kinds is empty: ask for at least one of opnet.KINDS (or an InnerProduct).")
     basis, mesh = surface_map.base, surface_map.mesh
     base = basis.mesh
     out = []
@@ -295,6 +321,10 @@ def encode(mesh: Mesh, base_basis: Eigenbasis, *, fmap=None, kinds=KINDS, warn: 
         fmap = compute_map(base_basis, mesh, **map_options)
         if warn:
             _warn_if_poor(fmap)
+    elif isinstance(fmap, FunctionalMap):
+        raise TypeError("encode takes a point correspondence (fmap='computed', a vertex map or an "
+                        "opnet.matching.SurfaceMap), not an opnet.FunctionalMap; for a functional map use "
+                        "opnet.shape_difference(base_basis, mesh, kind, fmap=...).")
     elif isinstance(fmap, SurfaceMap):
         if fmap.base is not base_basis or fmap.mesh is not mesh:
             raise ValueError("this SurfaceMap maps another mesh or base; compute it for this mesh and base_basis.")

@@ -66,8 +66,25 @@ def closest_points_on_faces(points: np.ndarray, vertices: np.ndarray, faces: np.
     Every candidate triangle is solved exactly (interior, else the nearest of its three edges), all points
     at once: pyFM's ``project_pc_to_triangles`` does the same one point at a time.
     """
+    points, near = np.asarray(points, dtype=np.float64), np.asarray(near)
+    if points.ndim != 2 or points.shape[1] != np.shape(vertices)[1] or near.dtype.kind not in "iu" \
+            or near.shape[:1] != points.shape[:1]:
+        raise ValueError(f"points must be (m, d) with d = {np.shape(vertices)[1]} and near (m, r) integer vertex "
+                         f"indices, got {points.shape} and {near.dtype} {near.shape}.")
     table = vertex_faces(faces, len(vertices))
-    cand = table[np.asarray(near).reshape(len(points), -1)].reshape(len(points), -1)  # (m, c)
+    near = near.reshape(len(points), -1)
+    chunk = max(1, 2**22 // (3 * table.shape[1] * near.shape[1] * max(points.shape[1], 1)))  # ~32 MB per array
+    parts = []
+    for s in range(0, len(points), chunk):
+        cand = table[near[s:s + chunk]].reshape(len(near[s:s + chunk]), -1)  # (m, c) candidate faces
+        parts.append(_closest_in(points[s:s + chunk], vertices, faces, cand))
+    if not parts:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
+def _closest_in(points, vertices, faces, cand):
+    """:func:`closest_points_on_faces` for one chunk, with candidate faces ``cand`` ``(m, c)`` (``-1``: none)."""
     valid = cand >= 0
     cand = np.where(valid, cand, cand[:, :1])
     corners = [vertices[faces[cand, j]] for j in range(3)]  # 3 × (m, c, d)

@@ -22,13 +22,13 @@ class Gram(opnet.InnerProduct):
 
 
 def finer_sphere(k=3):
-    """A finer triangulation of the 162-vertex test sphere, smoothly deformed: another mesh of the same shape."""
+    """A finer triangulation of the 162-vertex test sphere: another mesh of the same shape."""
     s = trimesh.creation.icosphere(k)
     return np.asarray(s.vertices), np.asarray(s.faces)
 
 
 @pytest.mark.parametrize("kind", [*INNER_PRODUCTS, Gram()])
-def test_pull_back_through_the_identity_is_the_fast_path(base, base_basis, targets, kind):
+def test_pull_back_through_the_identity_is_the_fast_path(base_basis, targets, kind):
     ip = opnet.get_inner_product(kind)
     t = targets[2]
     identity = sp.identity(t.n_vertices, format="csr")
@@ -69,7 +69,7 @@ def test_a_finer_triangulation_of_the_base_gives_nearly_the_identity(small_shape
     fine = opnet.Mesh(*finer_sphere())
     D = opnet.encode(fine, basis, fmap=opnet.matching.closest_point_map(basis, fine))
     itself = opnet.encode(base, basis)
-    for c in (0, 2):
+    for c in range(3):
         assert np.abs(D[c] - itself[c]).max() < 0.05, c
 
 
@@ -104,6 +104,16 @@ def test_computed_map_of_a_posed_2k_body_is_right_and_not_mirrored(humans, bodie
     assert q["coverage"] > 0.95 and q["orientation"] > 0.8, q
 
 
+def test_computed_map_ignores_scale_and_face_orientation_and_ends_at_k(humans, bodies_2k):
+    mesh, truth, _ = bodies_2k
+    reference = opnet.compute_map(humans.base_basis, mesh, k=50)
+    assert reference.fmap.shape == (50, 50)  # 50 - 20 is not a multiple of ZoomOut's step of 4
+    for other in (opnet.Mesh(mesh.vertices * 1000, mesh.faces), opnet.Mesh(mesh.vertices, mesh.faces[:, ::-1])):
+        sm = opnet.compute_map(humans.base_basis, other, k=50)
+        np.testing.assert_allclose(sm.points, reference.points, atol=1e-6)
+        assert sm.quality()["orientation"] > 0.8
+
+
 def test_quality_flags_mirrored_and_collapsed_maps(humans):
     basis = humans.base_basis
     base = basis.mesh
@@ -129,7 +139,7 @@ def test_encode_warns_when_the_computed_map_looks_wrong(humans, monkeypatch):
         matching.encode(base, basis, fmap="computed", warn=False)
 
 
-def test_bad_input_gets_errors_that_say_what_to_do(small_shapes, base, base_basis):
+def test_bad_input_gets_errors_that_say_what_to_do(small_shapes):
     sphere, _ = small_shapes
     basis = opnet.eigenbasis(sphere, 10)
     fine = opnet.Mesh(*finer_sphere())
@@ -150,6 +160,32 @@ def test_bad_input_gets_errors_that_say_what_to_do(small_shapes, base, base_basi
         opnet.compute_map(basis, fine, k=10, k_init=20)
     with pytest.raises(ValueError, match="another mesh"):
         opnet.encode(fine, basis, fmap=opnet.matching.closest_point_map(basis, sphere))
+    with pytest.raises(TypeError, match="not an opnet.FunctionalMap"):
+        opnet.encode(sphere, basis, fmap=opnet.identity_fmap(basis, basis))
+    with pytest.raises(ValueError, match="kinds is empty"):
+        opnet.matching.operators_through_map(opnet.matching.closest_point_map(basis, fine), ())
+    with pytest.raises(ValueError, match="to_base must be"):
+        opnet.SurfaceMap(basis, fine, np.eye(3))
+
+
+def test_closest_points_on_faces_matches_brute_force(small_shapes):
+    sphere, _ = small_shapes
+    rng = np.random.default_rng(0)
+    points = rng.normal(size=(300, 3)) * rng.uniform(0.5, 1.5, (300, 1))
+    near = np.argsort(np.linalg.norm(points[:, None] - sphere.vertices[None], axis=2), axis=1)[:, :3]
+    face, bary = opnet.mesh.closest_points_on_faces(points, sphere.vertices, sphere.faces, near)
+    found = np.einsum("mj,mjd->md", bary, sphere.vertices[sphere.faces[face]])
+    assert np.all(bary >= -1e-12) and np.allclose(bary.sum(1), 1)
+    # brute force: a dense sampling of every face's barycentric triangle
+    u = np.linspace(0, 1, 41)
+    s, t = np.meshgrid(u, u)
+    keep = s + t <= 1
+    w = np.stack([1 - s[keep] - t[keep], s[keep], t[keep]], 1)
+    samples = np.einsum("sj,fjd->fsd", w, sphere.vertices[sphere.faces]).reshape(-1, 3)
+    best = np.sqrt(((points[:, None] - samples[None]) ** 2).sum(-1).min(1))
+    got = np.linalg.norm(points - found, axis=1)
+    assert np.all(got <= best + 1e-12)  # never further than any sample
+    assert np.all(got >= best - 0.02)   # and as close as the sampling resolves
 
 
 def test_decode_accepts_one_or_many_and_picks_the_networks_channels(humans):
@@ -167,6 +203,8 @@ def test_decode_accepts_one_or_many_and_picks_the_networks_channels(humans):
         opnet.decode(net, ops[:, :2], kinds=("area", "conformal"))
     with pytest.raises(TypeError, match="OperatorNet"):
         opnet.decode("net", ops)
+    with pytest.raises(TypeError, match="not a string"):
+        opnet.decode(net, ops[:, 2:], kinds="extrinsic")
     bad = ops.copy()
     bad[0, 0, 0, 0] = np.nan
     with pytest.raises(ValueError, match="NaN"):
