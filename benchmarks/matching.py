@@ -23,8 +23,8 @@ import numpy as np
 
 import opnet
 from opnet.data import bodies
-from opnet.data.generators import generate_shapes
-from opnet.matching import SurfaceMap, closest_point_map, compute_map, operators_through_map
+from opnet.data.generators import generate_shapes, resolution_map
+from opnet.matching import SurfaceMap, compute_map, operators_through_map
 
 
 def main(argv=None):
@@ -57,8 +57,7 @@ def main(argv=None):
     for res in args.resolutions:
         faces = bodies.human_faces(res)
         shapes = generate_shapes(ds, ds.params["phenotypes"][idx], ds.params["controls"][idx], resolution=res)
-        rest = generate_shapes(ds, np.array([bodies.AVERAGE_SUBJECT]), bodies.rest_pose()[None], resolution=res)[0]
-        true_to_base = closest_point_map(basis, opnet.Mesh(rest, faces)).to_base  # one triangulation to the other
+        true_to_base = resolution_map(ds, res)  # one triangulation of the rest shape onto the other
         for label, options in (("true", None), ("computed", {}), ("no orientation", {"orientation": False})):
             seconds, errors, mirrored, quality, ops = [], [], 0, [], []
             for v in shapes:

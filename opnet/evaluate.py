@@ -28,6 +28,7 @@ from typing import Callable
 
 import numpy as np
 
+from .inner_products import get_inner_product
 from .mesh import edge_face_counts
 from .metrics import d_E, d_R, d_V, rigid_align
 from .shape_difference import KINDS
@@ -120,8 +121,6 @@ def decode(net, operators, kinds=KINDS) -> np.ndarray:
         raise TypeError(f"operators must be real numbers, got dtype {ops.dtype}.")
     if isinstance(kinds, str):
         raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
-    from .inner_products import get_inner_product
-
     kinds = tuple(get_inner_product(k).name for k in kinds)
     single = ops.ndim == 3
     batch = ops[None] if single else ops

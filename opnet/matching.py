@@ -32,7 +32,7 @@ from scipy.spatial import cKDTree
 from .fmaps import FunctionalMap
 from .mesh import Mesh, closest_points_on_faces, edge_face_counts, face_areas
 from .metrics import mesh_volume
-from .shape_difference import KINDS, _check_base, pinv_psd, shape_differences
+from .shape_difference import KINDS, _check_base, base_pinvs, shape_differences
 from .inner_products import get_inner_product
 from .spectral import Eigenbasis, eigenbasis
 
@@ -272,13 +272,9 @@ def operators_through_map(surface_map: SurfaceMap, kinds=KINDS) -> np.ndarray:
     if len(kinds) == 0:
         raise ValueError("kinds is empty: ask for at least one of opnet.KINDS (or an InnerProduct).")
     basis, mesh = surface_map.base, surface_map.mesh
-    base = basis.mesh
-    out = []
-    for kind in kinds:
-        ip = get_inner_product(kind)
-        K0 = ip.project(base.vertices, base.faces, basis.evecs)
-        out.append(pinv_psd(K0) @ ip.pull_back(mesh.vertices, mesh.faces, surface_map.to_base, basis.evecs))
-    return np.stack(out)
+    ips = [get_inner_product(kind) for kind in kinds]
+    return np.stack([k0_pinv @ ip.pull_back(mesh.vertices, mesh.faces, surface_map.to_base, basis.evecs)
+                     for ip, k0_pinv in zip(ips, base_pinvs(basis, ips))])
 
 
 def encode(mesh: Mesh, base_basis: Eigenbasis, *, fmap=None, kinds=KINDS, warn: bool = True,

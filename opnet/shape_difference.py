@@ -39,6 +39,12 @@ def pinv_psd(K: np.ndarray, rtol: float | None = None) -> np.ndarray:
     return (U[:, keep] / w[keep]) @ U[:, keep].T
 
 
+def base_pinvs(base_basis: Eigenbasis, kinds) -> list[np.ndarray]:
+    """``K_0⁺`` ``(k, k)`` of each kind on the base: the left factor of every shape difference ``D = K_0⁺ K``."""
+    base = base_basis.mesh
+    return [pinv_psd(get_inner_product(kind).project(base.vertices, base.faces, base_basis.evecs)) for kind in kinds]
+
+
 def _check_base(base_basis) -> None:
     if not isinstance(base_basis, Eigenbasis):
         raise TypeError(
@@ -68,7 +74,6 @@ def shape_difference(base_basis: Eigenbasis, target, kind="area", fmap: Function
     base = base_basis.mesh
     if not isinstance(target, Mesh):
         target = base.with_vertices(target)
-    K0 = ip.project(base.vertices, base.faces, base_basis.evecs)
     if fmap is None:
         if target.n_vertices != base.n_vertices:
             raise ValueError(
@@ -86,7 +91,7 @@ def shape_difference(base_basis: Eigenbasis, target, kind="area", fmap: Function
             raise ValueError("fmap.target is the eigenbasis of another mesh than target; pass the mesh the map goes to.")
         C = fmap.matrix
         Ki = C.T @ ip.project(t.vertices, t.faces, fmap.target.evecs) @ C
-    return pinv_psd(K0) @ Ki
+    return base_pinvs(base_basis, [ip])[0] @ Ki
 
 
 def shape_differences(
@@ -140,7 +145,7 @@ def shape_differences(
         raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
     ips = [get_inner_product(kind) for kind in kinds]
     phi, faces = base_basis.evecs, base.faces
-    k0_pinv = [pinv_psd(ip.project(base.vertices, faces, phi)) for ip in ips]
+    k0_pinv = base_pinvs(base_basis, ips)
     out = np.empty((len(vertices), len(ips), base_basis.k, base_basis.k))
     show = len(starts) > 1 if progress is None else progress
     for s in tqdm(starts, desc="shape differences", unit="batch", disable=not show):

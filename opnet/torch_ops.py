@@ -17,9 +17,8 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from .inner_products import get_inner_product
 from .mesh import unique_edges
-from .shape_difference import KINDS, pinv_psd
+from .shape_difference import KINDS, base_pinvs
 from .spectral import Eigenbasis, _corner_to_edge
 
 __all__ = ["ShapeDifferences", "shape_differences"]
@@ -71,8 +70,7 @@ class ShapeDifferences(torch.nn.Module):
         mesh = base_basis.mesh
         faces, edges = mesh.faces, unique_edges(mesh.faces)
         corner_edge = _corner_to_edge(faces, edges).indices  # the edge opposite each corner, (3m,)
-        k0_pinv = np.stack([pinv_psd(get_inner_product(kind).project(mesh.vertices, faces, base_basis.evecs))
-                            for kind in kinds])
+        k0_pinv = np.stack(base_pinvs(base_basis, kinds))
         phi = base_basis.evecs
         for name, value in (("faces", faces), ("corner_edge", corner_edge)):
             self.register_buffer(name, torch.tensor(np.asarray(value), dtype=torch.long, device=device), persistent=False)

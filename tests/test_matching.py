@@ -9,7 +9,7 @@ import trimesh
 import opnet
 from opnet import matching
 from opnet.data import bodies
-from opnet.data.generators import _evaluator
+from opnet.data.generators import generate_shapes, resolution_map
 from opnet.inner_products import INNER_PRODUCTS
 
 
@@ -77,12 +77,8 @@ def test_a_finer_triangulation_of_the_base_gives_nearly_the_identity(small_shape
 def bodies_2k(humans):
     """The base body at 2k vertices (another triangulation of the 1k base), and one posed test body at 2k."""
     i = humans.indices("test")[0]
-    ev = _evaluator("humans", "2k")
-    faces = bodies.human_faces("2k")
-    rest = ev(np.array([bodies.AVERAGE_SUBJECT]), bodies.rest_pose()[None])[0]
-    posed = ev(humans.params["phenotypes"][[i]], humans.params["controls"][[i]])[0]
-    truth = opnet.matching.closest_point_map(humans.base_basis, opnet.Mesh(rest, faces)).to_base
-    return opnet.Mesh(posed, faces), truth, i
+    posed = generate_shapes(humans, humans.params["phenotypes"][[i]], humans.params["controls"][[i]], resolution="2k")
+    return opnet.Mesh(posed[0], bodies.human_faces("2k")), resolution_map(humans, "2k"), i
 
 
 def test_computed_map_of_a_posed_2k_body_is_right_and_not_mirrored(humans, bodies_2k):

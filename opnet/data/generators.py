@@ -15,7 +15,7 @@ from . import bodies
 from .collections import assemble
 from .splits import make_splits
 
-__all__ = ["PRESETS", "GENERATORS", "GENERATOR_VERSION", "generate_shapes", "interpolate_controls"]
+__all__ = ["PRESETS", "GENERATORS", "GENERATOR_VERSION", "generate_shapes", "interpolate_controls", "resolution_map"]
 
 # Bump when a generator changes what it produces: cached collections then no longer match.
 GENERATOR_VERSION = "2"
@@ -144,6 +144,19 @@ def generate_shapes(collection, phenotypes, controls, *, resolution: str | None 
         raise ValueError(f"resolution applies to the humans, one of {list(bodies.RESOLUTIONS)}; got {resolution!r} "
                          f"for the {name}.")
     return _evaluator(name, resolution)(phenotypes, controls)
+
+
+def resolution_map(collection, resolution: str):
+    """The generator's own correspondence between its ``resolution`` mesh and the collection's base: the sparse
+    ``(n_resolution, n_base)`` barycentric map of the base's rest shape on one triangulation onto the other (closest
+    points, :func:`opnet.matching.closest_point_map`). The same for every shape, since both meshes are rigged alike:
+    the true map that computed maps of ``generate_shapes(..., resolution=)`` are measured against."""
+    from ..matching import closest_point_map
+    from ..mesh import Mesh
+
+    rest = generate_shapes(collection, np.array([bodies.AVERAGE_SUBJECT]), bodies.rest_pose()[None],
+                           resolution=resolution)[0]
+    return closest_point_map(collection.base_basis, Mesh(rest, bodies.human_faces(resolution))).to_base
 
 
 def interpolate_controls(collection, c0, c1, t) -> np.ndarray:
