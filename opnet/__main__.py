@@ -89,6 +89,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="skip the PointNet autoencoder and the analogy / interpolation benchmarks")
     r.add_argument("--no-refine", action="store_true",
                    help="skip the operator-matching rows (geometric baseline, + refinement; seconds per shape)")
+    r.add_argument("--no-maps", action="store_true",
+                   help="skip the computed-map rows (Table 1's Comp networks, other triangulations; maps take "
+                        "about 0.6 s per shape and core)")
     r.add_argument("--data-root", default=None, help="where collections are cached")
     return p
 
@@ -216,7 +219,7 @@ def _run(args) -> int:
 
     rows = reproduce(args.preset, args.out, device=args.device, ablation=not args.no_ablation,
                      figures=not args.no_figures, refine=not args.no_refine,
-                     applications=not args.no_applications, data_root=args.data_root,
+                     applications=not args.no_applications, maps=not args.no_maps, data_root=args.data_root,
                      progress=True)
     print(_table([r for r in rows if r["table"] == "table1"]))
     print(f"results: {args.out or f'reproduce-{args.preset}'}/results.md")

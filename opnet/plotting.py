@@ -8,7 +8,7 @@ import numpy as np
 from .mesh import Mesh
 
 __all__ = ["headless", "use_static_backend", "to_pyvista", "plot_meshes", "plot_operators", "plot_reconstructions",
-           "plot_history", "plot_refinement_curves", "plot_ablation", "plot_interpolations", "plot_analogies"]
+           "plot_mapped_reconstructions", "plot_history", "plot_refinement_curves", "plot_ablation", "plot_interpolations", "plot_analogies"]
 
 
 def headless() -> None:
@@ -66,7 +66,8 @@ def plot_meshes(meshes, scalars=None, titles=None, *, cmap="coolwarm", clim=None
     scalars : list of (n,) arrays or None, optional
         A vertex function painted on each mesh (``None`` for a plain surface).
     titles : list of str, optional
-    cmap, clim : colormap name and (min, max); ``clim`` defaults to each field's own range.
+    cmap, clim : colormap name and (min, max), or a list of them, one per mesh; ``clim`` defaults to each field's
+        own range.
     ncols : subplots per row (default: all in one row).
     camera : str, a pyvista camera position such as ``"yz"`` or ``"xy"``.
     """
@@ -75,13 +76,15 @@ def plot_meshes(meshes, scalars=None, titles=None, *, cmap="coolwarm", clim=None
     meshes = list(meshes)
     scalars = [None] * len(meshes) if scalars is None else list(scalars)
     titles = [None] * len(meshes) if titles is None else list(titles)
-    if not len(meshes) == len(scalars) == len(titles):
-        raise ValueError("meshes, scalars and titles must have the same length.")
+    cmaps = list(cmap) if isinstance(cmap, (list, tuple)) else [cmap] * len(meshes)
+    clims = list(clim) if isinstance(clim, list) else [clim] * len(meshes)
+    if not len(meshes) == len(scalars) == len(titles) == len(cmaps) == len(clims):
+        raise ValueError("meshes, scalars, titles and (when lists) cmap and clim must have the same length.")
     ncols = ncols or len(meshes)
     nrows = -(-len(meshes) // ncols)
     size = window_size or (300 * ncols, 380 * nrows)
     plotter = pv.Plotter(shape=(nrows, ncols), window_size=list(size), border=False, off_screen=True)
-    for i, (m, s, t) in enumerate(zip(meshes, scalars, titles)):
+    for i, (m, s, t, cmap, clim) in enumerate(zip(meshes, scalars, titles, cmaps, clims)):
         plotter.subplot(i // ncols, i % ncols)
         kw = dict(smooth_shading=True, show_scalar_bar=False)
         if s is None:
@@ -148,6 +151,44 @@ def plot_reconstructions(gt, reconstructions: dict, faces, *, titles=None, clim=
     ncols = 1 + len(reconstructions)
     return plot_meshes(meshes, scalars, labels, cmap="magma_r", clim=clim, ncols=ncols, camera=camera, zoom=zoom,
                        window_size=(330 * ncols, 360 * len(gt)))
+
+
+def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, camera="xz", zoom=1.2):
+    """Shapes given on another triangulation, their maps onto the base, and their reconstructions; one per row.
+
+    Columns: each mesh (e.g. 5k vertices) painted with a function of the base carried through its map
+    (left and right sides in opposite colours, brightening from feet to head), the base painted with
+    that function (equal colours mark corresponding points: a mirrored map swaps blue and red), then
+    each reconstruction coloured by its error against ``truth`` (as :func:`plot_reconstructions`).
+
+    Parameters
+    ----------
+    surface_maps : list of N :class:`opnet.matching.SurfaceMap` onto one base.
+    reconstructions : dict name → (N, n_base, 3) vertices on the base's triangulation.
+    truth : (N, n_base, 3) the shapes on the base's triangulation.
+    """
+    truth = np.asarray(truth, dtype=np.float64)
+    base = surface_maps[0].base.mesh
+    x, y = base.vertices[:, 0], base.vertices[:, 1]
+    painted = np.sign(x) * (1 + (y - y.min()) / np.ptp(y))
+    errors = {name: _aligned_errors(r, truth) for name, r in reconstructions.items()}
+    top = max(float(e.max()) for _, e in errors.values())
+    meshes, scalars, titles, cmaps, clims = [], [], [], [], []
+    for i, sm in enumerate(surface_maps):
+        meshes += [sm.mesh, base]
+        scalars += [sm.to_base @ painted, painted]
+        titles += [f"input ({sm.mesh.n_vertices} vertices), through its map", f"the base ({base.n_vertices} vertices): the map's target"]
+        cmaps += ["coolwarm", "coolwarm"]
+        clims += [(-2.0, 2.0), (-2.0, 2.0)]
+        for name, (aligned, err) in errors.items():
+            meshes.append((aligned[i], base.faces))
+            scalars.append(err[i])
+            titles.append(f"{name}: mean {1000 * err[i].mean():.1f} mm" + (f" (0 to {1000 * top:.0f})" if i == 0 else ""))
+            cmaps.append("magma_r")
+            clims.append((0.0, top))
+    ncols = 2 + len(reconstructions)
+    return plot_meshes(meshes, scalars, titles, cmap=cmaps, clim=clims, ncols=ncols, camera=camera, zoom=zoom,
+                       window_size=(330 * ncols, 360 * len(surface_maps)))
 
 
 def _aligned_errors(shapes, truth):

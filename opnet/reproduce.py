@@ -12,6 +12,11 @@ and writes
 - ``OUT/figures/``: training curves, the ablation heat map, reconstructions coloured by per-vertex error, and the
   applications' interpolation strips and analogy grids.
 
+With ``maps=True`` (default) it also computes maps from the 2k-vertex version of every shape onto the base
+(:func:`opnet.data.mapped_collection`), trains Table 1's "Comp" rows on the operators through them (:data:`COMP`),
+and reconstructs test shapes given on other triangulations (:func:`discretisation_rows`: rows with ``"table"``
+``"discretisation"``, and ``OUT/figures/discretisation.png``).
+
 With ``applications=True`` (default) it also trains the PointNet autoencoder (a Table 1 row) and runs the
 ground-truth analogy and interpolation benchmarks of :mod:`opnet.apps` (rows with ``"table"`` ``"analogy"`` and
 ``"interpolation"``). Table 1, the applications and ``results.*`` are written before the ablation.
@@ -33,9 +38,12 @@ from .evaluate import (TEST_SETS, _select, base_shape_method, evaluate, geometri
 from .shape_difference import KINDS
 from .train import CHANNEL_SETS
 
-__all__ = ["reproduce", "run_path", "table1_networks", "application_methods", "applications_rows", "applications_markdown", "ablation_table", "results_markdown", "refinement_curves", "snapshot_steps",
-           "Budget", "BUDGETS", "TABLE1", "OURS", "POINTNET", "REFINE", "REFINE_SETS", "ABLATION_SETS", "ABLATION_DEPTHS",
-           "PAPER_TABLE1", "PAPER_ABLATION"]
+__all__ = ["reproduce", "run_path", "table1_networks", "comp_networks", "discretisation_rows", "discretisation_indices",
+           "discretisation_figure",
+           "application_methods", "applications_rows", "applications_markdown", "discretisation_markdown",
+           "ablation_table", "results_markdown", "refinement_curves", "snapshot_steps", "Budget", "BUDGETS", "TABLE1",
+           "OURS", "COMP", "COMP_RESOLUTION", "DISCRETISATIONS", "DISCRETISATION_NETWORKS", "POINTNET", "REFINE",
+           "REFINE_SETS", "ABLATION_SETS", "ABLATION_DEPTHS", "PAPER_TABLE1", "PAPER_ABLATION"]
 
 
 @dataclass(frozen=True)
@@ -53,11 +61,12 @@ class Budget:
     analogies: int = 100  # analogy questions per kind
     paths: int = 10  # interpolation paths per kind
     apps_refine_shapes: int = 24  # shapes per kind the applications refine (seconds each)
+    discretisation_shapes: int = 80  # test shapes the different-discretisation rows map (seconds each)
 
 
 BUDGETS = {
     "quick": Budget(epochs=80, ablation_epochs=6, batch_size=16, refine_steps=30, refine_shapes=12, pointnet_epochs=40,
-                    analogies=24, paths=4, apps_refine_shapes=6),
+                    analogies=24, paths=4, apps_refine_shapes=6, discretisation_shapes=12),
     "default": Budget(epochs=60, ablation_epochs=12),
     "paper": Budget(epochs=100, ablation_epochs=25),
 }
@@ -76,12 +85,22 @@ OURS = {"OperatorNet ours (Int+Ext)": KINDS}
 REFINE = dict(channels=("area", "extrinsic"), optimizer="lbfgs", smoothness=1.0)
 REFINE_SETS = ("test", "test_subjects")
 
+#: Table 1's "Comp" rows: OperatorNet trained and tested on operators through maps computed from each shape's
+#: :data:`COMP_RESOLUTION` mesh (:func:`opnet.matching.compute_map`), not the known correspondence.
+COMP = {"OperatorNet (Comp)(Int+Ext)": KINDS, "OperatorNet (Comp)(Ext)": ("extrinsic",)}
+COMP_RESOLUTION = "2k"
+#: The different-discretisation rows: test shapes on these meshes, mapped onto the 1k base by these maps.
+DISCRETISATIONS = (("2k", "true"), ("2k", "computed"), ("5k", "true"), ("5k", "computed"))
+#: The networks that decode them (Table 1's and :data:`COMP`'s names).
+DISCRETISATION_NETWORKS = ("OperatorNet (Int+Ext)", "OperatorNet (Ext)", *COMP)
+
 #: Table 1's name of the PointNet autoencoder (:class:`opnet.model.PointNetAutoencoder`), trained with ``applications``.
 POINTNET = "PointNet AE"
 
 #: The paper's Table 1 on DFAUST (d_R ×10⁻⁴, d_V, d_E), for reference beside ours.
 PAPER_TABLE1 = {"OperatorNet (Int+Ext)": (1.11, 0.014, 0.045), "OperatorNet (Int)": (2.41, 0.013, 0.046),
-                "OperatorNet (Ext)": (1.25, 0.017, 0.046), "Nearest neighbour (Int+Ext)": (25.5, 0.005, 0.043)}
+                "OperatorNet (Ext)": (1.25, 0.017, 0.046), "Nearest neighbour (Int+Ext)": (25.5, 0.005, 0.043),
+                "OperatorNet (Comp)(Ext)": (3.86, 0.021, 0.052), "OperatorNet (Comp)(Int+Ext)": (6.22, 0.022, 0.053)}
 #: The paper's ablation (Appendix B, d_R ×10⁻⁴ on the DFAUST test set): depth → values in ABLATION_SETS order.
 PAPER_ABLATION = {1: (8.61, 4.29, 3.78, 3.82, 3.41, 2.56, 2.46), 2: (9.08, 4.54, 4.28, 4.65, 3.93, 3.10, 3.05),
                   3: (9.90, 5.54, 4.91, 5.59, 4.88, 3.71, 3.55), 4: (11.16, 6.39, 5.93, 6.89, 5.42, 4.35, 4.24)}
@@ -98,8 +117,8 @@ def _machine(device) -> str:
 
 
 def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool = True, figures: bool = True,
-              refine: bool = True, applications: bool = True, budget: Budget | None = None, data_root=None,
-              progress: bool | None = None) -> list[dict]:
+              refine: bool = True, applications: bool = True, maps: bool = True, budget: Budget | None = None,
+              data_root=None, progress: bool | None = None) -> list[dict]:
     """Reproduce the paper's Table 1 and ablation on the generated humans at ``preset``; returns the rows.
 
     Parameters
@@ -112,6 +131,9 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     refine : also evaluate the operator-matching rows: the geometric baseline and OperatorNet + refinement
         (:func:`opnet.reconstruct` with :data:`REFINE`, ``budget.refine_steps`` steps, on at most
         ``budget.refine_shapes`` shapes of each of :data:`REFINE_SETS`, evenly spaced: they take seconds per shape).
+    maps : also the computed-map rows: Table 1's "Comp" networks (:func:`comp_networks`; computing the maps of the
+        whole collection takes about 0.6 s per shape and core, done once and cached beside the collection) and the
+        different-discretisation rows (:func:`discretisation_rows`, ``budget.discretisation_shapes`` test shapes).
     applications : also train the PointNet autoencoder (Table 1's "PointNet AE" row) and run the analogy and
         interpolation benchmarks (:func:`applications_rows`; ``budget.analogies`` questions and ``budget.paths``
         paths per kind).
@@ -137,7 +159,7 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
 
     from tqdm.auto import tqdm
 
-    runs = tqdm(total=len(TABLE1) + len(OURS) + bool(applications)
+    runs = tqdm(total=len(TABLE1) + len(OURS) + bool(applications) + (len(COMP) if maps else 0)
                 + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0),
                 desc="reproduce", unit="network", disable=progress is False)
 
@@ -147,6 +169,14 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     methods += [pointnet_method(nets[POINTNET], coll, POINTNET)] if applications else []
     for m in methods:
         m.info = dict(table="table1", **devices[m.name])
+    if maps:
+        comp, comp_nets, comp_histories, comp_devices = comp_networks(coll, out, budget, device=device, progress=progress,
+                                                                      bar=runs, data_root=data_root)
+        nets.update(comp_nets)
+        histories.update(comp_histories)
+        comp_methods = [operatornet_method(net, comp, name) for name, net in comp_nets.items()]
+        for m in comp_methods:
+            m.info = dict(table="table1", **comp_devices[m.name])
     baselines = [nearest_neighbour_method(coll, KINDS), base_shape_method(coll)]
     matching = []
     if refine:
@@ -156,7 +186,12 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     for m in baselines + matching:
         m.info = dict(table="table1", epochs=None, train_seconds=None, device=str(device))
     rows = evaluate(coll, methods + baselines, TEST_SETS, extra=info)
+    rows += evaluate(comp, comp_methods, TEST_SETS, extra=info) if maps else []
     rows += evaluate(coll, matching, REFINE_SETS, extra=info)
+    if maps:
+        rows += discretisation_rows(coll, {name: nets[name] for name in DISCRETISATION_NETWORKS}, budget, comp=comp,
+                                    data_root=data_root, progress=progress, out=out / "figures" if figures else None,
+                                    extra=info)
     context = dict(preset=preset, budget=asdict(budget), machine=_machine(device), collection=repr(coll),
                    splits={s: int(np.sum(coll.split == s)) for s in ("train", "val", "test", "test_subjects")},
                    eval_subset=int(len(coll.eval_subset)))
@@ -223,10 +258,97 @@ def table1_networks(coll, out, budget: Budget, *, pointnet: bool = True, device=
     return nets, histories, info
 
 
+def comp_networks(coll, out, budget: Budget, *, device="cpu", progress=None, bar=None,
+                  data_root=None) -> tuple:
+    """Table 1's "Comp" networks (:data:`COMP`), trained in ``out/runs/comp-*`` (or loaded when trained there) on
+    ``comp = opnet.data.mapped_collection(coll, COMP_RESOLUTION)``: the same shapes, with operators through maps
+    computed from their 2k-vertex meshes. Returns ``comp`` and, like :func:`table1_networks`, dicts name →
+    network, name → history, name → run info."""
+    from .data import mapped_collection
+
+    comp = mapped_collection(coll, COMP_RESOLUTION, "computed", root=data_root, progress=progress)
+    nets, histories, info = {}, {}, {}
+    for name, channels in COMP.items():
+        nets[name], histories[name], info[name] = _train(comp, out, budget, channels, 1, budget.epochs, "comp",
+                                                         device=device, progress=progress, bar=bar)
+    return comp, nets, histories, info
+
+
+def discretisation_rows(coll, nets: dict, budget: Budget, *, comp=None, data_root=None, progress=None, out=None,
+                        extra: dict | None = None) -> list[dict]:
+    """Reconstructions of test shapes given on other triangulations: rows with ``"table"`` ``"discretisation"``.
+
+    At most ``budget.discretisation_shapes`` shapes of ``test`` (evenly spaced, :func:`discretisation_indices`) are generated on each mesh of
+    :data:`DISCRETISATIONS` and mapped onto the base by the true or the computed map
+    (:func:`opnet.data.mapped_collection`), and, as a reference, taken with their exact 1k operators (``resolution``
+    ``"1k"``, ``maps`` ``"exact"``). Every network of ``nets`` (name → network) decodes every encoding; d_R, d_V,
+    d_E against the generator's 1k shapes. Rows also hold ``resolution``, ``maps`` and ``map_error`` (metres, mean
+    over the shapes; 0 for the true map). ``comp``: the :func:`comp_networks` collection, whose 2k computed maps
+    are reused. With ``out``, writes ``discretisation.png`` there (:func:`discretisation_figure` of three 5k shapes).
+    """
+    from .data import mapped_collection
+
+    idx = discretisation_indices(coll, budget)
+    encodings = {("1k", "exact"): coll.subset(idx)}
+    for res, maps in DISCRETISATIONS:
+        if comp is not None and len(comp) == len(coll) and (comp.meta.get("map_resolution"), comp.meta.get("maps")) == (res, maps):
+            encodings[res, maps] = comp.subset(idx)
+        else:
+            encodings[res, maps] = mapped_collection(coll, res, maps, indices=idx, root=data_root, progress=progress)
+    rows = []
+    for (res, maps), c in encodings.items():
+        error = float(np.mean(c.params["map_error"])) if "map_error" in c.params else 0.0
+        methods = [operatornet_method(net, c, name) for name, net in nets.items()]
+        for m in methods:
+            m.info = dict(table="discretisation", resolution=res, maps=maps, map_error=error)
+        rows += evaluate(c, methods, ("test",), extra=extra)
+    if out is not None:
+        plotter = discretisation_figure(encodings["5k", "computed"],
+                                        {name: nets[name] for name in ("OperatorNet (Int+Ext)", next(iter(COMP))) if name in nets})
+        Path(out).mkdir(parents=True, exist_ok=True)
+        plotter.screenshot(str(Path(out) / "discretisation.png"))
+        plotter.close()
+    return rows
+
+
+def discretisation_indices(coll, budget: Budget) -> np.ndarray:
+    """The ``test`` shapes of :func:`discretisation_rows`: at most ``budget.discretisation_shapes``, evenly spaced."""
+    from .evaluate import _check_max_shapes
+
+    _check_max_shapes(budget.discretisation_shapes)
+    idx = test_set_indices(coll, "test")
+    return idx[np.linspace(0, len(idx) - 1, min(budget.discretisation_shapes, len(idx))).round().astype(int)]
+
+
+def discretisation_figure(mapped, nets: dict, shapes: int = 3):
+    """The ``shapes`` shapes of ``mapped`` (:func:`opnet.data.mapped_collection` with computed maps) that are farthest
+    from the base (the most deformed), on their own mesh through their maps onto the base, and each network's
+    reconstruction (name → network) coloured by its error: a pyvista plotter
+    (:func:`opnet.plotting.plot_mapped_reconstructions`; the maps are computed again, as they were for its operators:
+    seconds each)."""
+    from .data.bodies import human_faces
+    from .data.generators import generate_shapes
+    from .matching import compute_map
+    from .mesh import Mesh
+    from .metrics import d_R
+    from .plotting import headless, plot_mapped_reconstructions
+
+    if mapped.meta.get("maps") != "computed":
+        raise ValueError("mapped must be an opnet.data.mapped_collection(..., maps='computed').")
+    headless()
+    base = np.broadcast_to(mapped.base_basis.mesh.vertices, mapped.vertices.shape)
+    far = np.sort(np.argsort(d_R(mapped.vertices, base))[-shapes:])
+    res = mapped.meta["map_resolution"]
+    fine = generate_shapes(mapped, mapped.params["phenotypes"][far], mapped.params["controls"][far], resolution=res)
+    maps = [compute_map(mapped.base_basis, Mesh(v, human_faces(res)), k=mapped.meta["map_k"]) for v in fine]
+    recon = {name: operatornet_method(net, mapped, name).reconstruct(far) for name, net in nets.items()}
+    return plot_mapped_reconstructions(maps, recon, mapped.vertices[far])
+
+
 def run_path(out, table: str, channels, depth: int = 1, variant: str = "paper") -> Path:
     """The run directory :func:`reproduce` uses for one network: ``out/runs/<table>-<channels>-d<depth>``.
 
-    ``table`` is ``"table1"`` or ``"ablation"``; ``channels`` a set of kinds (short name ``A+E+C``, ``Ext``...);
+    ``table`` is ``"table1"``, ``"comp"`` or ``"ablation"``; ``channels`` a set of kinds (short name ``A+E+C``, ``Ext``...);
     ``variant="ours"`` (:func:`opnet.train.fit`) adds ``-ours``; ``variant="pointnet"`` names the PointNet
     autoencoder's run, ``out/runs/<table>-pointnet`` (``channels`` and ``depth`` are then ignored).
     """
@@ -379,8 +501,41 @@ def results_markdown(rows: list[dict], context: dict) -> str:
             lines += ["", f"All three operators give the best column in {best_col:.0%} of the depths (the paper: 100 %); "
                       f"depth 1 is {'the best' if np.argmin(done) == 0 else 'not the best'} for A+E+C "
                       f"({', '.join(_fmt(v) for v in done)} for depths 1–4)."]
+    lines += discretisation_markdown(rows)
     lines += applications_markdown(rows)
     return "\n".join(lines) + "\n"
+
+
+def discretisation_markdown(rows: list[dict]) -> list[str]:
+    """The different-discretisation section of ``results.md`` (lines): d_R per encoding and network, and the target."""
+    disc = [r for r in rows if r.get("table") == "discretisation"]
+    if not disc:
+        return []
+    nets = list(dict.fromkeys(r["method"] for r in disc))
+    encodings = list(dict.fromkeys((r["resolution"], r["maps"]) for r in disc))
+    get = {(r["resolution"], r["maps"], r["method"]): r for r in disc}
+    lines = ["", "## Other triangulations: test shapes on 2k and 5k meshes", "",
+             f"{disc[0]['n_shapes']} `test` shapes (evenly spaced) generated on each mesh, mapped onto the 1k base by the "
+             "generator's true correspondence or by a computed map (`opnet.matching.compute_map`), encoded through the "
+             "map and decoded by each network; d_R ×10⁻⁴ against the 1k shapes (median in brackets). Map error: mean "
+             "distance between where the computed and the true map send a vertex. *1k exact*: the same shapes' own "
+             "operators.", "",
+             "| mesh | map | map error (cm) | " + " | ".join(nets) + " |", "|---" * (3 + len(nets)) + "|"]
+    for res, maps in encodings:
+        first = get[res, maps, nets[0]]
+        cells = [f"{_fmt(get[res, maps, n]['d_R'], 1e4)} ({_fmt(get[res, maps, n]['d_R_median'], 1e4)})"
+                 if (res, maps, n) in get else "–" for n in nets]
+        error = "–" if maps == "exact" else f"{100 * first['map_error']:.2f}"
+        lines.append(f"| {res} | {maps} | {error} | " + " | ".join(cells) + " |")
+    exact = get.get(("1k", "exact", "OperatorNet (Int+Ext)"))
+    fine = [get[key] for key in get if key[:2] == ("5k", "computed")]
+    if exact is not None and fine:
+        best = min(fine, key=lambda r: r["d_R"])
+        ratio = best["d_R"] / exact["d_R"]
+        lines += ["", f"**Target:** 5k → 1k through computed maps within 3× of the 1k error: the best, {best['method']}, "
+                  f"gives {_fmt(best['d_R'], 1e4)} vs OperatorNet (Int+Ext)'s {_fmt(exact['d_R'], 1e4)} on the exact "
+                  f"operators of the same shapes, {ratio:.1f}×: {'met' if ratio <= 3 else 'missed'}."]
+    return lines
 
 
 _KIND_NAMES = {"analogy": {"pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)", "body": "body transfer (a,p):(b,p)::(a,q):(b,q)"},
@@ -455,6 +610,14 @@ def _targets(t1: list[dict]) -> list[str]:
         if refined is not None and before is not None:
             lines.append(f"- test: refinement changes {name}'s d_R by {100 * (refined / before - 1):+.0f} % "
                          f"({_fmt(before, 1e4)} → {_fmt(refined, 1e4)} ×10⁻⁴ on the same shapes).")
+    truth = get("OperatorNet (Int+Ext)", "test")
+    for name in COMP:
+        comp = get(name, "test")
+        if comp is not None and truth is not None:
+            paper = PAPER_TABLE1[name][0] / PAPER_TABLE1["OperatorNet (Int+Ext)"][0]
+            lines.append(f"- test: {name}'s d_R / OperatorNet (Int+Ext)'s (ground-truth maps) = {comp / truth:.1f} "
+                         f"({_fmt(comp, 1e4)} vs {_fmt(truth, 1e4)} ×10⁻⁴; target ≤ 5 at `default`, the paper "
+                         f"{paper:.1f}): {'met' if comp / truth <= 5 else 'missed'}.")
     order = [get(f"OperatorNet ({c})", "test") for c in ("Int+Ext", "Ext", "Int")]
     if None not in order:
         holds = order[0] < order[1] < order[2]

@@ -82,7 +82,8 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch):
     tiny = tiny_collection("humans")
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: tiny)
     budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, refine_steps=5, refine_shapes=3)
-    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, applications=False)
+    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, applications=False,
+                               maps=False)
     saved = json.loads((tmp_path / "results.json").read_text())
     assert saved == json.loads(json.dumps(rows))
     t1 = [r for r in saved if r["table"] == "table1"]
@@ -110,7 +111,7 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch):
     mtimes = {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
     assert len(mtimes) == 32
     reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, figures=False,
-                        applications=False)
+                        applications=False, maps=False)
     assert mtimes == {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
 
 
@@ -118,7 +119,7 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatc
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: humans)
     budget = reproduce.Budget(epochs=1, ablation_epochs=1, batch_size=64, hidden=16, refine_steps=2, refine_shapes=4,
                               pointnet_epochs=1, analogies=5, paths=2, apps_refine_shapes=4)
-    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False)
+    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False, maps=False)
     assert {r["method"] for r in rows if r["table"] == "table1"} >= {reproduce.POINTNET}
     assert (tmp_path / "runs" / "table1-pointnet" / "best.pt").is_file()
     names = ["OperatorNet (mult.)", "OperatorNet (linear)", "OperatorNet ours (mult.)",
@@ -136,6 +137,31 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatc
     latest = tmp_path / "runs" / "table1-pointnet" / "latest.pt"
     mtime = latest.stat().st_mtime
     again = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False,
-                                figures=False, refine=False)
+                                figures=False, refine=False, maps=False)
     assert latest.stat().st_mtime == mtime  # the finished PointNet run is reused, not retrained
     assert "OperatorNet (mult.) + refinement" not in {r["method"] for r in again if r["table"] == "analogy"}
+
+
+def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypatch):
+    """Table 1's Comp networks train on operators through computed maps; test shapes on 2k and 5k meshes are decoded
+    by them and by Table 1's, beside the exact 1k operators of the same shapes."""
+    few = humans.subset(np.concatenate([humans.indices(s)[::8] for s in opnet.data.SPLITS]))
+    monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: few)
+    budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, discretisation_shapes=3)
+    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False,
+                               applications=False, refine=False, data_root=root)
+    comp = [r for r in rows if r["table"] == "table1" and "(Comp)" in r["method"]]
+    assert {(r["method"], r["split"]) for r in comp} == {(m, s) for m in reproduce.COMP for s in evaluate.TEST_SETS}
+    assert all((tmp_path / "runs" / f"comp-{short}-d1" / "best.pt").is_file() for short in ("A+E+C", "Ext"))
+    disc = [r for r in rows if r["table"] == "discretisation"]
+    encodings = [("1k", "exact"), *reproduce.DISCRETISATIONS]
+    assert [(r["resolution"], r["maps"], r["method"]) for r in disc] == [
+        (*e, m) for e in encodings for m in reproduce.DISCRETISATION_NETWORKS]
+    assert all(r["n_shapes"] == 3 and np.isfinite(r["d_R"]) for r in disc)
+    errors = {(r["resolution"], r["maps"]): r["map_error"] for r in disc}
+    assert errors["2k", "true"] == errors["5k", "true"] == 0 and 0 < errors["2k", "computed"] < 0.05
+    md = (tmp_path / "results.md").read_text()
+    assert "Other triangulations" in md and "5k → 1k" in md and "(ground-truth maps)" in md and "6.22" in md
+    assert (tmp_path / "figures" / "discretisation.png").stat().st_size > 1000
+    with pytest.raises(ValueError, match="generated 1k humans|not made by a generator"):
+        reproduce.comp_networks(tiny_collection("humans"), tmp_path, budget)

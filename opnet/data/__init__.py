@@ -10,6 +10,7 @@ and smooth toy shapes for tutorials and tests.
     ds.split          # (N,) "train" | "val" | "test" | "test_subjects"
     ds.subcollection  # (N,) "subject03/walk"
     ds.base_basis     # the stored base eigenbasis (.evals, .evecs, .mass)
+    comp = opnet.data.mapped_collection(ds, "2k")   # the same shapes, operators through computed maps
 """
 from . import toy
 from .collections import (
@@ -22,10 +23,11 @@ from .collections import (
     read_collection,
     save_collection,
 )
+from .mapped import mapped_collection
 from .splits import furthest_point_subset, hausdorff, make_splits
 
 __all__ = ["toy", "SPLITS", "Collection", "CollectionError", "load_collection", "load_folder", "read_collection",
-           "save_collection", "default_root", "make_splits", "hausdorff", "furthest_point_subset", "OperatorDataset"]
+           "save_collection", "mapped_collection", "default_root", "make_splits", "hausdorff", "furthest_point_subset", "OperatorDataset"]
 
 
 def __getattr__(name):

@@ -1,0 +1,180 @@
+"""Collections whose operators come through maps from another triangulation: Table 1's "Comp" rows and the
+different-discretisation rows of :mod:`opnet.reproduce`.
+
+:func:`mapped_collection` takes a generated humans collection and returns the same shapes whose operators are
+those of each shape's 2k- or 5k-vertex version (:func:`~opnet.data.generators.generate_shapes` with
+``resolution``), encoded onto the base through a map (:func:`opnet.matching.operators_through_map`):
+
+- ``maps="computed"``: :func:`opnet.matching.compute_map`, which knows nothing of the correspondence (about
+  0.6 s per 2k shape, 2.4 s per 5k shape on one core; the shapes are spread over ``n_jobs`` processes);
+- ``maps="true"``: the generator's own correspondence (:func:`~opnet.data.generators.resolution_map`): what
+  the change of triangulation alone does to the operators.
+
+The vertices stay the collection's (the base's triangulation): they are what a network decodes to and is
+measured against. ``params`` gains ``map_error`` ``(N,)`` (metres: the mean distance between where the map
+and the true map send each vertex, :meth:`opnet.matching.SurfaceMap.error`), ``map_coverage`` and
+``map_orientation`` ``(N,)`` (:meth:`~opnet.matching.SurfaceMap.quality`).
+
+On disk it is a collection like any other (``<source>-<maps><resolution>-<hash>`` under the data root), built
+in chunks: each finished chunk is written atomically as ``<stem>.part-<start>.npz``, so an interrupted build
+continues where it stopped, and the parts are removed once the collection is saved.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from .._files import atomic_write
+from .collections import Collection, CollectionError, default_root, read_collection, save_collection
+
+__all__ = ["mapped_collection", "MAPS"]
+
+#: How the shapes' other triangulation is mapped onto the base.
+MAPS = ("computed", "true")
+_FORMAT = 1  # of the parts and of what the stem's hash covers
+_FIELDS = ("operators", "map_error", "coverage", "orientation")  # of a part
+
+
+def mapped_collection(collection: Collection, resolution: str = "2k", maps: str = "computed", *, indices=None,
+                      root=None, rebuild: bool = False, n_jobs: int = -1, chunk: int = 32, k: int = 100,
+                      progress: bool | None = None) -> Collection:
+    """``collection``'s shapes (or those of ``indices``) with operators through maps from their ``resolution`` mesh.
+
+    Parameters
+    ----------
+    collection : Collection
+        A generated humans collection (:func:`opnet.data.load_collection`), whose base is the 1k mesh.
+    resolution : str
+        The other triangulation: a key of :data:`opnet.data.bodies.RESOLUTIONS` (``"2k"``, ``"5k"``).
+    maps : str
+        ``"computed"`` or ``"true"`` (see the module docstring).
+    indices : array of int, optional
+        Only these shapes, in this order (:meth:`Collection.subset`); default all.
+    root : path, optional
+        Where it is cached (default :func:`opnet.data.default_root`); reused when it exists.
+    rebuild : bool
+        Rebuild even if cached.
+    n_jobs : int
+        Processes computing maps (joblib's convention: ``-1`` all cores).
+    chunk : int
+        Shapes per stored part (what an interruption can lose at most, per process).
+    k : int
+        Functions at the end of ZoomOut (:func:`opnet.matching.compute_map`).
+    progress : bool or None
+        A progress bar over the shapes (``None``: only when there are more than a chunk).
+
+    Returns
+    -------
+    Collection
+        With ``meta`` gaining ``maps``, ``map_resolution``, ``map_k`` and ``source`` (the source's name).
+    """
+    from . import bodies
+    from .generators import _generated
+
+    if not isinstance(collection, Collection):
+        raise TypeError(f"collection must be an opnet.data.Collection, got {type(collection).__name__}.")
+    if _generated(collection) != "humans" or collection.meta.get("resolution") != "1k":
+        raise ValueError("mapped collections are made from the generated 1k humans "
+                         "(opnet.data.load_collection('humans', preset)): they alone come in other triangulations.")
+    if resolution not in bodies.RESOLUTIONS:
+        raise ValueError(f"resolution must be one of {list(bodies.RESOLUTIONS)}, got {resolution!r}.")
+    if maps not in MAPS:
+        raise ValueError(f"maps must be one of {MAPS}, got {maps!r}.")
+    for name, value in (("chunk", chunk), ("k", k)):
+        if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
+            raise ValueError(f"{name} must be a positive integer, got {value!r}.")
+    source = collection if indices is None else collection.subset(indices)
+    m = collection.meta
+    stem = Path(root) if root is not None else default_root()
+    stem = stem / (f"{m['name']}-{m['preset']}-{m['resolution']}-seed{m['seed']}-v{m['generator_version']}-"
+                   f"{maps}{resolution}-{_fingerprint(source, k)}")
+    meta = dict(source.meta, maps=maps, map_resolution=resolution, map_k=int(k),
+                source=f"{m['name']}-{m['preset']}-{m['resolution']}")
+    if not rebuild and stem.with_name(stem.name + ".json").is_file():
+        return read_collection(stem, expected_meta=meta)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    if rebuild:
+        for part in _parts(stem):
+            part.unlink()
+    results = _compute(source, stem, resolution, maps, k, n_jobs, chunk, progress)
+    operators, error, coverage, orientation = (np.concatenate(r) for r in zip(*results))
+    params = dict(source.params, map_error=error, map_coverage=coverage, map_orientation=orientation)
+    out = replace(source, operators=operators.astype(np.float32), params=params, meta=meta)
+    save_collection(out, stem)
+    for part in _parts(stem):
+        part.unlink()
+    return out
+
+
+def _fingerprint(source: Collection, k: int) -> str:
+    """What the operators depend on: the shapes' generator parameters and the base; 12 hex digits."""
+    h = hashlib.sha256(f"{_FORMAT}-{k}".encode())
+    for a in (source.params["phenotypes"], source.params["controls"], source.base_basis.evecs):
+        h.update(np.ascontiguousarray(a).data)
+    return h.hexdigest()[:12]
+
+
+def _parts(stem: Path) -> list[Path]:
+    return sorted(stem.parent.glob(f"{stem.name}.part-*.npz"))
+
+
+def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int, n_jobs: int, chunk: int, progress):
+    """Per chunk of shapes ``(operators, map_error, coverage, orientation)``, read from finished parts or computed
+    (in ``n_jobs`` processes) and stored as parts."""
+    from joblib import Parallel, delayed
+    from tqdm.auto import tqdm
+
+    from . import bodies
+    from .generators import generate_shapes, resolution_map
+
+    starts = range(0, len(source), chunk)
+    paths = {s: stem.with_name(f"{stem.name}.part-{s:07d}.npz") for s in starts}
+    done = {}
+    for s, path in paths.items():
+        if path.is_file():
+            try:
+                with np.load(path) as z:
+                    done[s] = tuple(z[key] for key in _FIELDS)
+            except (OSError, ValueError, KeyError) as exc:
+                raise CollectionError(f"{path} is unreadable ({exc}); delete it or pass rebuild=True.") from None
+    todo = [s for s in starts if s not in done]
+    bar = tqdm(total=len(source), initial=sum(len(r[0]) for r in done.values()), unit="shape",
+               desc=f"{maps} maps from {resolution}", disable=progress is False or (progress is None and len(todo) < 2))
+    true_to_base = resolution_map(source, resolution)
+    faces = bodies.human_faces(resolution)
+
+    def task(s):
+        sl = slice(s, s + chunk)
+        vertices = generate_shapes(source, source.params["phenotypes"][sl], source.params["controls"][sl],
+                                   resolution=resolution)
+        return delayed(_map_chunk)(source.base_basis, vertices, faces, true_to_base, maps, k)
+
+    with Parallel(n_jobs=n_jobs, return_as="generator") as parallel:
+        for s, result in zip(todo, parallel(task(s) for s in todo)):
+            atomic_write(paths[s], lambda f, r=result: np.savez(f, **dict(zip(_FIELDS, r))))
+            done[s] = result
+            bar.update(len(result[0]))
+    bar.close()
+    return [done[s] for s in starts]
+
+
+def _map_chunk(base_basis, vertices, faces, true_to_base, maps, k):
+    """Operators ``(c, 3, k0, k0)`` float32, map errors (metres), coverage and orientation ``(c,)`` of ``c`` shapes."""
+    from ..matching import SurfaceMap, compute_map, operators_through_map
+    from ..mesh import Mesh
+    from ..spectral import eigenbasis
+
+    spectrum = eigenbasis(base_basis.mesh, k) if maps == "computed" else None
+    scale = np.sqrt(base_basis.mesh.area)
+    out = []
+    for v in vertices:
+        mesh = Mesh(v, faces)
+        true = SurfaceMap(base_basis, mesh, true_to_base)
+        sm = compute_map(base_basis, mesh, k=k, base_spectrum=spectrum) if maps == "computed" else true
+        q = sm.quality()
+        out.append((operators_through_map(sm).astype(np.float32), sm.error(true).mean() * scale, q["coverage"],
+                    q["orientation"]))
+    return tuple(np.array(x) for x in zip(*out))

@@ -1,0 +1,96 @@
+"""Collections through maps from another triangulation (opnet.data.mapped_collection) and Collection.subset."""
+import numpy as np
+import pytest
+
+import opnet
+from opnet.data import mapped as mapped_module
+from opnet.data import mapped_collection
+
+
+@pytest.fixture(scope="module")
+def few(humans):
+    """Six humans: two of val, two of test, two of train."""
+    return humans.subset(np.concatenate([humans.indices(s)[:2] for s in ("val", "test", "train")]))
+
+
+def test_subset_takes_shapes_and_remaps_the_evaluation_subset(humans):
+    idx = np.concatenate([humans.eval_subset[:2], humans.indices("train")[:3]])[::-1]
+    sub = humans.subset(idx)
+    assert len(sub) == 5 and np.array_equal(sub.vertices, humans.vertices[idx])
+    assert np.array_equal(sub.operators, humans.operators[idx]) and np.array_equal(sub.split, humans.split[idx])
+    assert all(np.array_equal(sub.params[k], v[idx]) for k, v in humans.params.items())
+    assert sorted(idx[sub.eval_subset]) == sorted(humans.eval_subset[:2])
+    for bad in ([len(humans)], [-1], [[0, 1]], [0.5]):
+        with pytest.raises(ValueError, match="indices"):
+            humans.subset(bad)
+
+
+def test_true_maps_of_the_base_triangulation_give_the_exact_operators(few, tmp_path):
+    """The 1k mesh mapped onto itself by the generator's correspondence is the identity: the fast path's operators."""
+    same = mapped_collection(few, "1k", "true", root=tmp_path, n_jobs=1, progress=False)
+    np.testing.assert_allclose(same.operators, few.operators, atol=1e-5)
+    assert np.array_equal(same.vertices, few.vertices) and np.array_equal(same.split, few.split)
+    assert np.all(same.params["map_error"] == 0) and np.all(same.params["map_coverage"] > 0.95)
+    assert same.meta["maps"] == "true" and same.meta["map_resolution"] == "1k"
+
+
+class Interrupted(Exception):
+    """Stands for a kill or Ctrl-C in the middle of a build."""
+
+
+def test_computed_maps_of_2k_meshes_are_near_the_truth_and_resume_after_an_interruption(few, tmp_path, monkeypatch):
+    calls = []
+    original = mapped_module._map_chunk
+
+    def interrupted(*args):
+        calls.append(len(args[1]))
+        if calls == [4, 2]:  # the second chunk of the first build
+            raise Interrupted
+        return original(*args)
+
+    monkeypatch.setattr(mapped_module, "_map_chunk", interrupted)
+    with pytest.raises(Interrupted):
+        mapped_collection(few, "2k", root=tmp_path, n_jobs=1, chunk=4, progress=False)
+    parts = list(tmp_path.glob("*.part-*.npz"))
+    assert len(parts) == 1 and not list(tmp_path.glob("*.json"))  # the finished chunk is kept; nothing loads
+    with pytest.raises(opnet.data.CollectionError, match="no collection"):
+        opnet.data.read_collection(tmp_path / parts[0].name.split(".part-")[0])
+    calls.clear()
+    comp = mapped_collection(few, "2k", root=tmp_path, n_jobs=1, chunk=4, progress=False)
+    assert calls == [2]  # only the unfinished chunk
+    assert not list(tmp_path.glob("*.part-*")), "parts are removed once the collection is saved"
+    true = mapped_collection(few, "2k", "true", root=tmp_path, n_jobs=1, chunk=4, progress=False)
+    assert np.all(comp.params["map_error"] < 0.04) and np.all(comp.params["map_orientation"] > 0.8)  # metres
+    signal = np.linalg.norm(few.operators - np.eye(few.base_basis.k), axis=(2, 3))
+    through_true = np.linalg.norm(true.operators - few.operators, axis=(2, 3)) / signal
+    through_computed = np.linalg.norm(comp.operators - few.operators, axis=(2, 3)) / signal
+    # the extrinsic channel moves least (measured: 0.08-0.20 of its signal through the true map, 0.23-0.59 computed)
+    assert np.all(through_true[:, 2] < 0.3) and np.all(through_computed[:, 2] < 0.8)
+    assert np.all(through_true.mean(0) < through_computed.mean(0))  # the map's error adds to the discretisation's
+    again = mapped_collection(few, "2k", root=tmp_path, n_jobs=1, chunk=4, progress=False)  # cached
+    assert calls == [2, 4, 2] and np.array_equal(again.operators, comp.operators)
+
+
+def test_bad_input(few, tmp_path):
+    with pytest.raises(ValueError, match="resolution"):
+        mapped_collection(few, "3k", root=tmp_path)
+    with pytest.raises(ValueError, match="maps"):
+        mapped_collection(few, "2k", "exact", root=tmp_path)
+    with pytest.raises(ValueError, match="chunk"):
+        mapped_collection(few, "2k", root=tmp_path, chunk=0)
+    with pytest.raises(TypeError, match="Collection"):
+        mapped_collection(few.vertices, "2k", root=tmp_path)
+    with pytest.raises(ValueError, match="generated 1k humans|not made by a generator"):
+        mapped_collection(_folder_collection(tmp_path), "2k", root=tmp_path)
+
+
+def _folder_collection(tmp_path):
+    """A collection of the user's own meshes (no generator behind it)."""
+    import trimesh
+
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    s = trimesh.creation.icosphere(2)
+    for i in range(3):
+        trimesh.Trimesh(s.vertices * (1 + 0.1 * i), s.faces, process=False).export(folder / f"s{i}.ply")
+    return opnet.data.load_folder(folder, k=10, progress=False)
