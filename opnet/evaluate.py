@@ -35,8 +35,7 @@ from .shape_difference import KINDS
 
 __all__ = ["TEST_SETS", "Method", "decode", "test_set_indices", "channel_label", "predict", "operatornet_method", "pointnet_method",
            "nearest_neighbour", "nearest_neighbour_method", "base_shape_method", "geometric_method", "refined_method",
-           "shape_errors", "summarize", "vertex_errors",
-           "evaluate"]
+           "shape_errors", "summarize", "vertex_errors", "evenly_spaced", "evaluate"]
 
 TEST_SETS = ("eval_subset", "test", "test_subjects")
 _LABELS = {KINDS: "Int+Ext", ("area", "conformal"): "Int", ("extrinsic",): "Ext"}
@@ -256,6 +255,14 @@ def summarize(errors: dict) -> dict:
     return out
 
 
+def evenly_spaced(indices, count: int) -> np.ndarray:
+    """At most ``count`` of ``indices``, evenly spaced from the first to the last (all of them when fewer)."""
+    indices = np.asarray(indices)
+    if len(indices) <= count:
+        return indices
+    return indices[np.linspace(0, len(indices) - 1, count).round().astype(int)]
+
+
 def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = None) -> list[dict]:
     """One row per (method, test set): ``method``, ``channels``, ``depth``, ``split``, ``n_shapes``,
     ``seconds_per_shape`` (the method's wall time over the set, per shape) and the mean and median of ``d_R``
@@ -269,8 +276,8 @@ def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = N
             idx = test_set_indices(collection, ts)
             if len(idx) == 0:
                 continue
-            if m.max_shapes is not None and len(idx) > m.max_shapes:
-                idx = idx[np.linspace(0, len(idx) - 1, m.max_shapes).round().astype(int)]
+            if m.max_shapes is not None:
+                idx = evenly_spaced(idx, m.max_shapes)
             start = time.perf_counter()
             recon = m.reconstruct(idx)
             seconds = (time.perf_counter() - start) / len(idx)

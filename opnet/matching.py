@@ -39,6 +39,9 @@ from .spectral import Eigenbasis, eigenbasis
 __all__ = ["SurfaceMap", "MapQualityWarning", "compute_map", "map_from_p2p", "closest_point_map", "encode",
            "operators_through_map"]
 
+#: The version of what :func:`compute_map` returns: bump it with any change to its output, so that operators
+#: cached through computed maps (:func:`opnet.data.mapped_collection`) are computed again.
+MAP_VERSION = 1
 #: Below these, :func:`encode` warns that the map is probably wrong (see :meth:`SurfaceMap.quality`).
 MIN_COVERAGE, MIN_ORIENTATION = 0.8, 0.5
 # Candidate vertices per projected point: the faces around its 3 nearest vertices are tried.

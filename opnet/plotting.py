@@ -8,7 +8,8 @@ import numpy as np
 from .mesh import Mesh
 
 __all__ = ["headless", "use_static_backend", "to_pyvista", "plot_meshes", "plot_operators", "plot_reconstructions",
-           "plot_mapped_reconstructions", "plot_history", "plot_refinement_curves", "plot_ablation", "plot_interpolations", "plot_analogies"]
+           "plot_mapped_reconstructions", "plot_history", "plot_refinement_curves", "plot_ablation",
+           "plot_interpolations", "plot_analogies"]
 
 
 def headless() -> None:
@@ -56,8 +57,8 @@ def to_pyvista(mesh):
     return pv.PolyData(np.asarray(v), np.hstack([np.full((len(f), 1), 3), f]).ravel())
 
 
-def plot_meshes(meshes, scalars=None, titles=None, *, cmap="coolwarm", clim=None, ncols=None, camera="yz", zoom=1.0,
-                window_size=None):
+def plot_meshes(meshes, scalars=None, titles=None, *, cmap="coolwarm", clim=None, cmaps=None, clims=None, ncols=None,
+                camera="yz", zoom=1.0, window_size=None):
     """A pyvista plotter with one mesh per subplot (call ``.show()`` on it, or ``.screenshot(path)``).
 
     Parameters
@@ -66,8 +67,8 @@ def plot_meshes(meshes, scalars=None, titles=None, *, cmap="coolwarm", clim=None
     scalars : list of (n,) arrays or None, optional
         A vertex function painted on each mesh (``None`` for a plain surface).
     titles : list of str, optional
-    cmap, clim : colormap name and (min, max), or a list of them, one per mesh; ``clim`` defaults to each field's
-        own range.
+    cmap, clim : colormap name and (min, max); ``clim`` defaults to each field's own range.
+    cmaps, clims : lists, one colormap and one (min, max) or None per mesh, instead of ``cmap`` and ``clim``.
     ncols : subplots per row (default: all in one row).
     camera : str, a pyvista camera position such as ``"yz"`` or ``"xy"``.
     """
@@ -76,10 +77,10 @@ def plot_meshes(meshes, scalars=None, titles=None, *, cmap="coolwarm", clim=None
     meshes = list(meshes)
     scalars = [None] * len(meshes) if scalars is None else list(scalars)
     titles = [None] * len(meshes) if titles is None else list(titles)
-    cmaps = list(cmap) if isinstance(cmap, (list, tuple)) else [cmap] * len(meshes)
-    clims = list(clim) if isinstance(clim, list) else [clim] * len(meshes)
+    cmaps = [cmap] * len(meshes) if cmaps is None else list(cmaps)
+    clims = [clim] * len(meshes) if clims is None else list(clims)
     if not len(meshes) == len(scalars) == len(titles) == len(cmaps) == len(clims):
-        raise ValueError("meshes, scalars, titles and (when lists) cmap and clim must have the same length.")
+        raise ValueError("meshes, scalars, titles, cmaps and clims must have the same length.")
     ncols = ncols or len(meshes)
     nrows = -(-len(meshes) // ncols)
     size = window_size or (300 * ncols, 380 * nrows)
@@ -157,7 +158,7 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
     """Shapes given on another triangulation, their maps onto the base, and their reconstructions; one per row.
 
     Columns: each mesh (e.g. 5k vertices) painted with a function of the base carried through its map
-    (left and right sides in opposite colours, brightening from feet to head), the base painted with
+    (left and right sides in opposite colours, deepening from feet to head), the base painted with
     that function (equal colours mark corresponding points: a mirrored map swaps blue and red), then
     each reconstruction coloured by its error against ``truth`` (as :func:`plot_reconstructions`).
 
@@ -167,27 +168,35 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
     reconstructions : dict name → (N, n_base, 3) vertices on the base's triangulation.
     truth : (N, n_base, 3) the shapes on the base's triangulation.
     """
+    from .matching import SurfaceMap
+
+    if not surface_maps or not all(isinstance(sm, SurfaceMap) for sm in surface_maps):
+        raise TypeError("surface_maps must be a non-empty list of opnet.matching.SurfaceMap.")
+    if not reconstructions:
+        raise ValueError("reconstructions is empty: give at least one name → (N, n_base, 3) array.")
     truth = np.asarray(truth, dtype=np.float64)
     base = surface_maps[0].base.mesh
-    x, y = base.vertices[:, 0], base.vertices[:, 1]
-    painted = np.sign(x) * (1 + (y - y.min()) / np.ptp(y))
+    x, z = base.vertices[:, 0], base.vertices[:, 2]  # +x the body's left, +z up
+    painted = np.sign(x) * (1 + (z - z.min()) / np.ptp(z))
     errors = {name: _aligned_errors(r, truth) for name, r in reconstructions.items()}
     top = max(float(e.max()) for _, e in errors.values())
     meshes, scalars, titles, cmaps, clims = [], [], [], [], []
     for i, sm in enumerate(surface_maps):
         meshes += [sm.mesh, base]
         scalars += [sm.to_base @ painted, painted]
-        titles += [f"input ({sm.mesh.n_vertices} vertices), through its map", f"the base ({base.n_vertices} vertices): the map's target"]
+        titles += [f"input ({sm.mesh.n_vertices} vertices), through its map",
+                   f"the base ({base.n_vertices} vertices): the map's target"]
         cmaps += ["coolwarm", "coolwarm"]
         clims += [(-2.0, 2.0), (-2.0, 2.0)]
         for name, (aligned, err) in errors.items():
             meshes.append((aligned[i], base.faces))
             scalars.append(err[i])
-            titles.append(f"{name}: mean {1000 * err[i].mean():.1f} mm" + (f" (0 to {1000 * top:.0f})" if i == 0 else ""))
+            scale = f" (0 to {1000 * top:.0f})" if i == 0 else ""
+            titles.append(f"{name}: mean {1000 * err[i].mean():.1f} mm{scale}")
             cmaps.append("magma_r")
             clims.append((0.0, top))
     ncols = 2 + len(reconstructions)
-    return plot_meshes(meshes, scalars, titles, cmap=cmaps, clim=clims, ncols=ncols, camera=camera, zoom=zoom,
+    return plot_meshes(meshes, scalars, titles, cmaps=cmaps, clims=clims, ncols=ncols, camera=camera, zoom=zoom,
                        window_size=(330 * ncols, 360 * len(surface_maps)))
 
 

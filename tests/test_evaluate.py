@@ -148,20 +148,35 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
     few = humans.subset(np.concatenate([humans.indices(s)[::8] for s in opnet.data.SPLITS]))
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: few)
     budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, discretisation_shapes=3)
+    data = tmp_path / "data"
     rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False,
-                               applications=False, refine=False, data_root=root)
+                               applications=False, refine=False, data_root=data)
     comp = [r for r in rows if r["table"] == "table1" and "(Comp)" in r["method"]]
     assert {(r["method"], r["split"]) for r in comp} == {(m, s) for m in reproduce.COMP for s in evaluate.TEST_SETS}
-    assert all((tmp_path / "runs" / f"comp-{short}-d1" / "best.pt").is_file() for short in ("A+E+C", "Ext"))
+    comp = opnet.data.mapped_collection(few, "2k", root=data)  # cached by reproduce
+    for short in ("A+E+C", "Ext"):  # the Comp networks were trained on it
+        config = json.loads((tmp_path / "runs" / f"comp-{short}-d1" / "config.json").read_text())
+        assert config["data"]["fingerprint"] == train.collection_fingerprint(comp)
+    assert len(list(data.glob("*computed2k*.json"))) == 1  # the 2k computed rows reuse it: no subset of their own
     disc = [r for r in rows if r["table"] == "discretisation"]
     encodings = [("1k", "exact"), *reproduce.DISCRETISATIONS]
     assert [(r["resolution"], r["maps"], r["method"]) for r in disc] == [
         (*e, m) for e in encodings for m in reproduce.DISCRETISATION_NETWORKS]
     assert all(r["n_shapes"] == 3 and np.isfinite(r["d_R"]) for r in disc)
     errors = {(r["resolution"], r["maps"]): r["map_error"] for r in disc}
-    assert errors["2k", "true"] == errors["5k", "true"] == 0 and 0 < errors["2k", "computed"] < 0.05
+    assert 0 < errors["2k", "computed"] < 0.05 and 0 < errors["5k", "computed"] < 0.05  # metres
     md = (tmp_path / "results.md").read_text()
-    assert "Other triangulations" in md and "5k → 1k" in md and "(ground-truth maps)" in md and "6.22" in md
+    assert "Other triangulations" in md and "| OperatorNet (Comp)(Int+Ext) |" in md
+    t1 = {r["method"]: r["d_R"] for r in rows if r["table"] == "table1" and r["split"] == "test"}
+    ratio = t1["OperatorNet (Comp)(Ext)"] / t1["OperatorNet (Int+Ext)"]
+    assert f"OperatorNet (Comp)(Ext)'s d_R / OperatorNet (Int+Ext)'s (ground-truth maps) = {ratio:.1f}" in md
+    get = {(r["resolution"], r["maps"], r["method"]): r["d_R"] for r in disc}
+    ratio = get["5k", "computed", "OperatorNet (Ext)"] / get["1k", "exact", "OperatorNet (Int+Ext)"]
+    assert f"- OperatorNet (Ext): {1e4 * get['5k', 'computed', 'OperatorNet (Ext)']:.3g}, {ratio:.1f}×" in md
     assert (tmp_path / "figures" / "discretisation.png").stat().st_size > 1000
     with pytest.raises(ValueError, match="generated 1k humans|not made by a generator"):
         reproduce.comp_networks(tiny_collection("humans"), tmp_path, budget)
+    with pytest.raises(ValueError, match="shapes must be"):
+        reproduce.discretisation_figure(comp, {"net": None}, shapes=0)
+    with pytest.raises(ValueError, match="maps='computed'"):
+        reproduce.discretisation_figure(few, {"net": None})

@@ -20,9 +20,11 @@ def test_subset_takes_shapes_and_remaps_the_evaluation_subset(humans):
     assert np.array_equal(sub.operators, humans.operators[idx]) and np.array_equal(sub.split, humans.split[idx])
     assert all(np.array_equal(sub.params[k], v[idx]) for k, v in humans.params.items())
     assert sorted(idx[sub.eval_subset]) == sorted(humans.eval_subset[:2])
-    for bad in ([len(humans)], [-1], [[0, 1]], [0.5]):
+    for bad in ([len(humans)], [-1], [[0, 1]], [0.5], [3, 3]):
         with pytest.raises(ValueError, match="indices"):
             humans.subset(bad)
+    with pytest.raises(ValueError, match="flatnonzero"):
+        humans.subset(humans.split == "test")
 
 
 def test_true_maps_of_the_base_triangulation_give_the_exact_operators(few, tmp_path):
@@ -43,7 +45,7 @@ def test_computed_maps_of_2k_meshes_are_near_the_truth_and_resume_after_an_inter
     original = mapped_module._map_chunk
 
     def interrupted(*args):
-        calls.append(len(args[1]))
+        calls.append(len(args[2]))  # the chunk's vertices
         if calls == [4, 2]:  # the second chunk of the first build
             raise Interrupted
         return original(*args)
@@ -78,6 +80,10 @@ def test_bad_input(few, tmp_path):
         mapped_collection(few, "2k", "exact", root=tmp_path)
     with pytest.raises(ValueError, match="chunk"):
         mapped_collection(few, "2k", root=tmp_path, chunk=0)
+    with pytest.raises(ValueError, match="n_jobs"):
+        mapped_collection(few, "2k", root=tmp_path, n_jobs=0)
+    with pytest.raises(ValueError, match="indices is empty"):
+        mapped_collection(few, "2k", root=tmp_path, indices=[])
     with pytest.raises(TypeError, match="Collection"):
         mapped_collection(few.vertices, "2k", root=tmp_path)
     with pytest.raises(ValueError, match="generated 1k humans|not made by a generator"):
@@ -94,3 +100,26 @@ def _folder_collection(tmp_path):
     for i in range(3):
         trimesh.Trimesh(s.vertices * (1 + 0.1 * i), s.faces, process=False).export(folder / f"s{i}.ply")
     return opnet.data.load_folder(folder, k=10, progress=False)
+
+
+def test_a_build_resumed_with_other_chunk_sizes_recomputes_what_does_not_fit(few, tmp_path, monkeypatch):
+    original = mapped_module._map_chunk
+    calls = []
+
+    def interrupted(*args):
+        calls.append(len(args[2]))  # the chunk's vertices
+        if calls == [4, 2]:
+            raise Interrupted
+        return original(*args)
+
+    monkeypatch.setattr(mapped_module, "_map_chunk", interrupted)
+    with pytest.raises(Interrupted):
+        mapped_collection(few, "1k", "true", root=tmp_path, n_jobs=1, chunk=4, progress=False)
+    calls.clear()
+    same = mapped_collection(few, "1k", "true", root=tmp_path, n_jobs=1, chunk=3, progress=False)
+    assert calls == [3, 3]  # the finished part of 4 shapes is not one of these chunks
+    np.testing.assert_allclose(same.operators, few.operators, atol=1e-5)
+    calls.clear()
+    again = mapped_collection(few, "1k", "true", root=tmp_path, n_jobs=1, chunk=8, progress=False, rebuild=True)
+    assert calls == [6]  # rebuild: everything again, in one chunk
+    np.testing.assert_allclose(again.operators, same.operators, atol=1e-6)  # the generator's batches: round-off

@@ -27,7 +27,8 @@ from .mapped import mapped_collection
 from .splits import furthest_point_subset, hausdorff, make_splits
 
 __all__ = ["toy", "SPLITS", "Collection", "CollectionError", "load_collection", "load_folder", "read_collection",
-           "save_collection", "mapped_collection", "default_root", "make_splits", "hausdorff", "furthest_point_subset", "OperatorDataset"]
+           "save_collection", "mapped_collection", "default_root", "make_splits", "hausdorff", "furthest_point_subset",
+           "OperatorDataset"]
 
 
 def __getattr__(name):

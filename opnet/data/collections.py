@@ -78,16 +78,20 @@ class Collection:
         return Mesh(self.vertices[i].astype(np.float64), self.faces)
 
     def subset(self, indices) -> Collection:
-        """Shapes ``indices`` (in that order) as a collection of their own: vertices, operators, splits,
+        """Shapes ``indices`` (distinct, in that order) as a collection of their own: vertices, operators, splits,
         sub-collections and parameters are taken; the evaluation subset keeps those of its shapes that are."""
         idx = np.asarray(indices)
         if idx.ndim != 1 or (idx.size and idx.dtype.kind not in "iu"):
-            raise ValueError(f"indices must be a 1-D array of shape indices, got {idx.dtype} array of shape {idx.shape}.")
+            hint = " (for a boolean mask, pass np.flatnonzero(mask))" if idx.dtype == bool else ""
+            raise ValueError(f"indices must be a 1-D array of shape indices{hint}, got {idx.dtype} array of shape "
+                             f"{idx.shape}.")
         idx = idx.astype(np.int64)
         if idx.size and (idx.min() < 0 or idx.max() >= len(self)):
             raise ValueError(f"indices must lie in [0, {len(self) - 1}], got [{idx.min()}, {idx.max()}].")
+        if len(np.unique(idx)) != len(idx):
+            raise ValueError("indices has repeated shapes; give each shape once (np.unique(indices)).")
         position = {int(i): j for j, i in enumerate(idx)}
-        eval_subset = np.array([position[i] for i in self.eval_subset.tolist() if i in position], dtype=np.int64)
+        eval_subset = np.sort([position[i] for i in self.eval_subset.tolist() if i in position]).astype(np.int64)
         return Collection(self.vertices[idx], self.faces, self.operators[idx], self.split[idx], self.subcollection[idx],
                           self.base_basis, eval_subset, {k: v[idx] for k, v in self.params.items()}, dict(self.meta))
 

@@ -16,30 +16,34 @@ and the true map send each vertex, :meth:`opnet.matching.SurfaceMap.error`), ``m
 ``map_orientation`` ``(N,)`` (:meth:`~opnet.matching.SurfaceMap.quality`).
 
 On disk it is a collection like any other (``<source>-<maps><resolution>-<hash>`` under the data root), built
-in chunks: each finished chunk is written atomically as ``<stem>.part-<start>.npz``, so an interrupted build
-continues where it stopped, and the parts are removed once the collection is saved.
+in chunks: each finished chunk of shapes ``start`` to ``stop`` is written atomically as
+``<stem>.part-<start>-<stop>.npz``, so an interrupted build continues where it stopped (with the same ``chunk``),
+and the parts are removed once the collection is saved.
 """
 from __future__ import annotations
 
 import hashlib
+import zipfile
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from .._files import atomic_write
+from .._files import atomic_write, remove_stale_tmp
 from .collections import Collection, CollectionError, default_root, read_collection, save_collection
 
-__all__ = ["mapped_collection", "MAPS"]
+__all__ = ["mapped_collection", "MAPS", "MAP_K"]
 
 #: How the shapes' other triangulation is mapped onto the base.
 MAPS = ("computed", "true")
+#: Functions at the end of ZoomOut, by default (:func:`opnet.matching.compute_map`'s).
+MAP_K = 100
 _FORMAT = 1  # of the parts and of what the stem's hash covers
 _FIELDS = ("operators", "map_error", "coverage", "orientation")  # of a part
 
 
 def mapped_collection(collection: Collection, resolution: str = "2k", maps: str = "computed", *, indices=None,
-                      root=None, rebuild: bool = False, n_jobs: int = -1, chunk: int = 32, k: int = 100,
+                      root=None, rebuild: bool = False, n_jobs: int = -1, chunk: int = 32, k: int = MAP_K,
                       progress: bool | None = None) -> Collection:
     """``collection``'s shapes (or those of ``indices``) with operators through maps from their ``resolution`` mesh.
 
@@ -52,13 +56,13 @@ def mapped_collection(collection: Collection, resolution: str = "2k", maps: str 
     maps : str
         ``"computed"`` or ``"true"`` (see the module docstring).
     indices : array of int, optional
-        Only these shapes, in this order (:meth:`Collection.subset`); default all.
+        Only these shapes, in this order (:meth:`Collection.subset`; at least one); default all.
     root : path, optional
         Where it is cached (default :func:`opnet.data.default_root`); reused when it exists.
     rebuild : bool
         Rebuild even if cached.
     n_jobs : int
-        Processes computing maps (joblib's convention: ``-1`` all cores).
+        Processes computing maps (joblib's convention: ``-1`` all cores, ``-2`` all but one).
     chunk : int
         Shapes per stored part (what an interruption can lose at most, per process).
     k : int
@@ -83,10 +87,14 @@ def mapped_collection(collection: Collection, resolution: str = "2k", maps: str 
         raise ValueError(f"resolution must be one of {list(bodies.RESOLUTIONS)}, got {resolution!r}.")
     if maps not in MAPS:
         raise ValueError(f"maps must be one of {MAPS}, got {maps!r}.")
-    for name, value in (("chunk", chunk), ("k", k)):
-        if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
-            raise ValueError(f"{name} must be a positive integer, got {value!r}.")
+    for name, value, lowest in (("chunk", chunk, 1), ("k", k, 1), ("n_jobs", n_jobs, None)):
+        integer = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+        if not integer or value == 0 or (lowest is not None and value < lowest):
+            kind = "a non-zero integer (-1: all cores)" if lowest is None else "a positive integer"
+            raise ValueError(f"{name} must be {kind}, got {value!r}.")
     source = collection if indices is None else collection.subset(indices)
+    if len(source) == 0:
+        raise ValueError("indices is empty: give at least one shape index.")
     m = collection.meta
     stem = Path(root) if root is not None else default_root()
     stem = stem / (f"{m['name']}-{m['preset']}-{m['resolution']}-seed{m['seed']}-v{m['generator_version']}-"
@@ -96,29 +104,37 @@ def mapped_collection(collection: Collection, resolution: str = "2k", maps: str 
     if not rebuild and stem.with_name(stem.name + ".json").is_file():
         return read_collection(stem, expected_meta=meta)
     stem.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_tmp(stem.parent.glob(f".{stem.name}.part-*.tmp-*"))  # parts of killed builds
     if rebuild:
-        for part in _parts(stem):
-            part.unlink()
+        _remove_parts(stem)
     results = _compute(source, stem, resolution, maps, k, n_jobs, chunk, progress)
     operators, error, coverage, orientation = (np.concatenate(r) for r in zip(*results))
+    if len(operators) != len(source):  # the parts must tile the shapes exactly
+        raise CollectionError(f"the parts of {stem} hold {len(operators)} shapes, not {len(source)}; "
+                              "pass rebuild=True.")
     params = dict(source.params, map_error=error, map_coverage=coverage, map_orientation=orientation)
-    out = replace(source, operators=operators.astype(np.float32), params=params, meta=meta)
+    out = replace(source, operators=operators, params=params, meta=meta)
     save_collection(out, stem)
-    for part in _parts(stem):
-        part.unlink()
+    _remove_parts(stem)
     return out
 
 
 def _fingerprint(source: Collection, k: int) -> str:
-    """What the operators depend on: the shapes' generator parameters and the base; 12 hex digits."""
-    h = hashlib.sha256(f"{_FORMAT}-{k}".encode())
+    """What the operators depend on: the shapes' generator parameters, the base, the versions of the map's code
+    (:data:`opnet.matching.MAP_VERSION`, pyFM's) and ``k``; 12 hex digits."""
+    from importlib.metadata import version
+
+    from ..matching import MAP_VERSION
+
+    h = hashlib.sha256(f"{_FORMAT}-{MAP_VERSION}-{version('pyfmaps')}-{k}".encode())
     for a in (source.params["phenotypes"], source.params["controls"], source.base_basis.evecs):
         h.update(np.ascontiguousarray(a).data)
     return h.hexdigest()[:12]
 
 
-def _parts(stem: Path) -> list[Path]:
-    return sorted(stem.parent.glob(f"{stem.name}.part-*.npz"))
+def _remove_parts(stem: Path) -> None:
+    for part in stem.parent.glob(f"{stem.name}.part-*.npz"):
+        part.unlink(missing_ok=True)  # a concurrent build of the same stem may have removed it
 
 
 def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int, n_jobs: int, chunk: int, progress):
@@ -127,30 +143,32 @@ def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int,
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm
 
+    from ..spectral import eigenbasis
     from . import bodies
     from .generators import generate_shapes, resolution_map
 
     starts = range(0, len(source), chunk)
-    paths = {s: stem.with_name(f"{stem.name}.part-{s:07d}.npz") for s in starts}
+    paths = {s: stem.with_name(f"{stem.name}.part-{s:07d}-{min(s + chunk, len(source)):07d}.npz") for s in starts}
     done = {}
     for s, path in paths.items():
         if path.is_file():
             try:
                 with np.load(path) as z:
                     done[s] = tuple(z[key] for key in _FIELDS)
-            except (OSError, ValueError, KeyError) as exc:
+            except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
                 raise CollectionError(f"{path} is unreadable ({exc}); delete it or pass rebuild=True.") from None
     todo = [s for s in starts if s not in done]
     bar = tqdm(total=len(source), initial=sum(len(r[0]) for r in done.values()), unit="shape",
                desc=f"{maps} maps from {resolution}", disable=progress is False or (progress is None and len(todo) < 2))
     true_to_base = resolution_map(source, resolution)
     faces = bodies.human_faces(resolution)
+    spectrum = eigenbasis(source.base_basis.mesh, k) if maps == "computed" else None  # the base's, once
 
     def task(s):
         sl = slice(s, s + chunk)
         vertices = generate_shapes(source, source.params["phenotypes"][sl], source.params["controls"][sl],
                                    resolution=resolution)
-        return delayed(_map_chunk)(source.base_basis, vertices, faces, true_to_base, maps, k)
+        return delayed(_map_chunk)(source.base_basis, spectrum, vertices, faces, true_to_base)
 
     with Parallel(n_jobs=n_jobs, return_as="generator") as parallel:
         for s, result in zip(todo, parallel(task(s) for s in todo)):
@@ -161,19 +179,21 @@ def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int,
     return [done[s] for s in starts]
 
 
-def _map_chunk(base_basis, vertices, faces, true_to_base, maps, k):
-    """Operators ``(c, 3, k0, k0)`` float32, map errors (metres), coverage and orientation ``(c,)`` of ``c`` shapes."""
+def _map_chunk(base_basis, spectrum, vertices, faces, true_to_base):
+    """Operators ``(c, 3, k0, k0)`` float32, map errors (metres), coverage and orientation ``(c,)`` of ``c`` shapes
+    ``vertices`` ``(c, n, 3)`` on ``faces``: through computed maps with the base's ``spectrum`` (its first ``k``
+    eigenpairs), or through the true map ``true_to_base`` when ``spectrum`` is None."""
     from ..matching import SurfaceMap, compute_map, operators_through_map
     from ..mesh import Mesh
-    from ..spectral import eigenbasis
 
-    spectrum = eigenbasis(base_basis.mesh, k) if maps == "computed" else None
+    if spectrum is not None:  # the same base mesh object as base_basis's, whatever pickling did to the two
+        spectrum = replace(spectrum, mesh=base_basis.mesh)
     scale = np.sqrt(base_basis.mesh.area)
     out = []
     for v in vertices:
         mesh = Mesh(v, faces)
         true = SurfaceMap(base_basis, mesh, true_to_base)
-        sm = compute_map(base_basis, mesh, k=k, base_spectrum=spectrum) if maps == "computed" else true
+        sm = true if spectrum is None else compute_map(base_basis, mesh, k=spectrum.k, base_spectrum=spectrum)
         q = sm.quality()
         out.append((operators_through_map(sm).astype(np.float32), sm.error(true).mean() * scale, q["coverage"],
                     q["orientation"]))
