@@ -59,7 +59,7 @@ def main(argv=None):
         shapes = generate_shapes(ds, ds.params["phenotypes"][idx], ds.params["controls"][idx], resolution=res)
         true_to_base = resolution_map(ds, res)  # one triangulation of the rest shape onto the other
         for label, options in (("true", None), ("computed", {}), ("no orientation", {"orientation": False})):
-            seconds, errors, mirrored, quality, ops = [], [], 0, [], []
+            seconds, errors, mirrored, quality, maps = [], [], 0, [], []
             for v in shapes:
                 mesh = opnet.Mesh(v, faces)
                 true = SurfaceMap(basis, mesh, true_to_base)
@@ -71,8 +71,8 @@ def main(argv=None):
                 errors.append(err.mean())
                 mirrored += int(mirror.mean() < err.mean())
                 quality.append(list(sm.quality().values()))
-                ops.append(operators_through_map(sm))
-            ops = np.stack(ops)
+                maps.append(sm)
+            ops = operators_through_map(maps)
             rel = (np.linalg.norm(ops - truth_ops, axis=(2, 3)) / signal).mean(0)
             coverage, orientation = np.mean(quality, axis=0)
             cm = np.mean(errors) * np.sqrt(basis.mesh.area) * 100

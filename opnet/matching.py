@@ -262,22 +262,30 @@ def compute_map(base_basis: Eigenbasis, mesh: Mesh, *, k: int = 100, k_init: int
     return SurfaceMap(base_basis, mesh, _barycentric_map(face, bary, base.faces, base.n_vertices), C)
 
 
-def operators_through_map(surface_map: SurfaceMap, kinds=KINDS) -> np.ndarray:
-    """Shape differences ``(len(kinds), k, k)`` of ``surface_map.mesh`` against the base, through the map.
+def operators_through_map(surface_map, kinds=KINDS) -> np.ndarray:
+    """Shape differences ``(len(kinds), k, k)`` of ``surface_map.mesh`` against the base, through the map; for a
+    list of maps onto one base, ``(len(maps), len(kinds), k, k)`` (the base's ``K_0⁺`` computed once).
 
     ``D = K_0⁺ K`` with ``K`` each inner product of the mesh pulled back onto the base's functions
     (:meth:`opnet.InnerProduct.pull_back`). With the identity map this is the fast path exactly.
     """
-    if not isinstance(surface_map, SurfaceMap):
-        raise TypeError(f"surface_map must be an opnet.matching.SurfaceMap, got {type(surface_map).__name__}.")
+    single = isinstance(surface_map, SurfaceMap)
+    maps = [surface_map] if single else list(surface_map) if isinstance(surface_map, (list, tuple)) else None
+    if not maps or not all(isinstance(sm, SurfaceMap) for sm in maps):
+        raise TypeError("surface_map must be an opnet.matching.SurfaceMap or a non-empty list of them, got "
+                        f"{type(surface_map).__name__}.")
+    basis = maps[0].base
+    if any(sm.base is not basis for sm in maps):
+        raise ValueError("the maps go onto different bases; encode them one base at a time.")
     if isinstance(kinds, str):
         raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
     if len(kinds) == 0:
         raise ValueError("kinds is empty: ask for at least one of opnet.KINDS (or an InnerProduct).")
-    basis, mesh = surface_map.base, surface_map.mesh
     ips = [get_inner_product(kind) for kind in kinds]
-    return np.stack([k0_pinv @ ip.pull_back(mesh.vertices, mesh.faces, surface_map.to_base, basis.evecs)
-                     for ip, k0_pinv in zip(ips, base_pinvs(basis, ips))])
+    pinvs = base_pinvs(basis, ips)
+    out = np.stack([np.stack([k0_pinv @ ip.pull_back(sm.mesh.vertices, sm.mesh.faces, sm.to_base, basis.evecs)
+                              for ip, k0_pinv in zip(ips, pinvs)]) for sm in maps])
+    return out[0] if single else out
 
 
 def encode(mesh: Mesh, base_basis: Eigenbasis, *, fmap=None, kinds=KINDS, warn: bool = True,

@@ -162,6 +162,22 @@ def test_bad_input_gets_errors_that_say_what_to_do(small_shapes):
         opnet.matching.operators_through_map(opnet.matching.closest_point_map(basis, fine), ())
     with pytest.raises(ValueError, match="to_base must be"):
         opnet.SurfaceMap(basis, fine, np.eye(3))
+    with pytest.raises(TypeError, match="non-empty list"):
+        opnet.matching.operators_through_map([])
+    other = opnet.eigenbasis(sphere, basis.k)
+    with pytest.raises(ValueError, match="different bases"):
+        opnet.matching.operators_through_map([opnet.matching.closest_point_map(basis, fine),
+                                              opnet.matching.closest_point_map(other, fine)])
+
+
+def test_operators_through_a_list_of_maps_equal_one_at_a_time(small_shapes):
+    sphere, deformed = small_shapes
+    basis = opnet.eigenbasis(sphere, 20)
+    maps = [opnet.matching.closest_point_map(basis, m) for m in deformed]
+    batch = opnet.matching.operators_through_map(maps)
+    assert batch.shape == (len(maps), len(opnet.KINDS), 20, 20)
+    for D, sm in zip(batch, maps):
+        np.testing.assert_array_equal(D, opnet.matching.operators_through_map(sm))
 
 
 def test_closest_points_on_faces_matches_brute_force(small_shapes):

@@ -234,6 +234,12 @@ def assemble(vertices: np.ndarray, faces: np.ndarray, base_vertices: np.ndarray,
                       np.array(sorted(subset), dtype=np.int64), params, dict(meta, k=k))
 
 
+def _stem_name(meta: dict) -> str:
+    """The file name (without extensions) of a generated collection: ``<name>-<preset>-<resolution>-seed<seed>-v<N>``.
+    The generator version is part of it: after an upgrade that changes the data, the collection is rebuilt."""
+    return f"{meta['name']}-{meta['preset']}-{meta['resolution']}-seed{meta['seed']}-v{meta['generator_version']}"
+
+
 def load_collection(name: str, preset: str = "quick", root=None, *, resolution: str | None = None, seed: int = 0,
                     rebuild: bool = False, progress: bool | None = None) -> Collection:
     """The collection ``name`` (``"humans"``, ``"heads"`` or ``"hands"``) at ``preset``, built if missing.
@@ -258,9 +264,8 @@ def load_collection(name: str, preset: str = "quick", root=None, *, resolution: 
     except TypeError:
         raise ValueError(f"seed must be an integer, got {seed!r}.") from None
     root = Path(root) if root is not None else default_root()
-    # the generator version is part of the name: after an upgrade that changes the data, it is rebuilt
-    stem = root / f"{name}-{preset}-{resolution}-seed{seed}-v{GENERATOR_VERSION}"
     meta = dict(name=name, preset=preset, resolution=resolution, seed=seed, generator_version=GENERATOR_VERSION)
+    stem = root / _stem_name(meta)
     if not rebuild and stem.with_name(stem.name + ".json").is_file():
         return read_collection(stem, expected_meta=meta)
     coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress)

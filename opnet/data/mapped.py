@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from .._files import atomic_write, remove_stale_tmp
-from .collections import Collection, CollectionError, default_root, read_collection, save_collection
+from .collections import Collection, CollectionError, _stem_name, default_root, read_collection, save_collection
 
 __all__ = ["mapped_collection", "MAPS", "MAP_K"]
 
@@ -97,8 +97,7 @@ def mapped_collection(collection: Collection, resolution: str = "2k", maps: str 
         raise ValueError("indices is empty: give at least one shape index.")
     m = collection.meta
     stem = Path(root) if root is not None else default_root()
-    stem = stem / (f"{m['name']}-{m['preset']}-{m['resolution']}-seed{m['seed']}-v{m['generator_version']}-"
-                   f"{maps}{resolution}-{_fingerprint(source, k)}")
+    stem = stem / f"{_stem_name(m)}-{maps}{resolution}-{_fingerprint(source, k)}"
     meta = dict(source.meta, maps=maps, map_resolution=resolution, map_k=int(k),
                 source=f"{m['name']}-{m['preset']}-{m['resolution']}")
     if not rebuild and stem.with_name(stem.name + ".json").is_file():
@@ -189,12 +188,12 @@ def _map_chunk(base_basis, spectrum, vertices, faces, true_to_base):
     if spectrum is not None:  # the same base mesh object as base_basis's, whatever pickling did to the two
         spectrum = replace(spectrum, mesh=base_basis.mesh)
     scale = np.sqrt(base_basis.mesh.area)
-    out = []
+    maps, stats = [], []
     for v in vertices:
         mesh = Mesh(v, faces)
         true = SurfaceMap(base_basis, mesh, true_to_base)
         sm = true if spectrum is None else compute_map(base_basis, mesh, k=spectrum.k, base_spectrum=spectrum)
         q = sm.quality()
-        out.append((operators_through_map(sm).astype(np.float32), sm.error(true).mean() * scale, q["coverage"],
-                    q["orientation"]))
-    return tuple(np.array(x) for x in zip(*out))
+        maps.append(sm)
+        stats.append((sm.error(true).mean() * scale, q["coverage"], q["orientation"]))
+    return (operators_through_map(maps).astype(np.float32), *(np.array(x) for x in zip(*stats)))
