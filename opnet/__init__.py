@@ -37,7 +37,7 @@ from .inner_products import (
     InnerProduct,
     get_inner_product,
 )
-from .mesh import Mesh, MeshError, load_mesh
+from .mesh import Mesh, MeshError, MeshWarning, load_mesh
 from .metrics import d_E, d_R, d_V, kabsch, mesh_volume, rigid_align
 from .shape_difference import KINDS, distortion_function, pinv_psd, shape_difference, shape_differences
 from .spectral import Eigenbasis, cotan_edge_weights, eigenbasis, vertex_areas
@@ -46,7 +46,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "data",
-    "Mesh", "MeshError", "load_mesh",
+    "Mesh", "MeshError", "MeshWarning", "load_mesh",
     "Eigenbasis", "eigenbasis", "vertex_areas", "cotan_edge_weights",
     "FunctionalMap", "fmap_from_p2p", "fmap_from_soft_map", "identity_fmap",
     "InnerProduct", "AreaInnerProduct", "ConformalInnerProduct", "ExtrinsicInnerProduct",

@@ -18,15 +18,15 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
+from ._checks import real_array
+
 __all__ = ["interpolate", "analogy", "relative_difference", "log_difference"]
 
 
 def _as_operator(D, name: str) -> np.ndarray:
-    D = np.asarray(D, dtype=np.float64)
+    D = real_array(name, D)
     if D.ndim != 2 or D.shape[0] != D.shape[1]:
         raise ValueError(f"{name} must be a square (k, k) shape difference, got shape {D.shape}.")
-    if not np.isfinite(D).all():
-        raise ValueError(f"{name} contains NaN or infinite values.")
     return D
 
 
@@ -79,9 +79,9 @@ def interpolate(D0, D1, t, scheme: str = "multiplicative") -> np.ndarray:
     D0, D1 = _as_operator(D0, "D0"), _as_operator(D1, "D1")
     if D0.shape != D1.shape:
         raise ValueError(f"D0 and D1 must have the same shape, got {D0.shape} and {D1.shape}.")
-    ts = np.atleast_1d(np.asarray(t, dtype=np.float64))
-    if ts.ndim != 1 or not np.isfinite(ts).all():
-        raise ValueError("t must be a finite scalar or 1-d array.")
+    ts = np.atleast_1d(real_array("t", t))
+    if ts.ndim != 1:
+        raise ValueError(f"t must be a scalar or a 1-d array, got shape {np.shape(t)}.")
     if scheme == "linear":
         out = (1 - ts)[:, None, None] * D0 + ts[:, None, None] * D1
     elif scheme == "multiplicative":
@@ -119,7 +119,7 @@ def relative_difference(D0i, D0j, C0i) -> np.ndarray:
     of the result (the constant component, which those inner products do not see) is
     not the one ``S_i`` would compute as a base.
     """
-    C = np.asarray(getattr(C0i, "matrix", C0i), dtype=np.float64)
+    C = real_array("C0i", getattr(C0i, "matrix", C0i))
     D0i, D0j = _as_operator(D0i, "D0i"), _as_operator(D0j, "D0j")
     if C.ndim != 2 or C.shape[1] != D0i.shape[0]:
         raise ValueError(f"C0i must be (k_i, {D0i.shape[0]}), got {C.shape}.")

@@ -35,9 +35,10 @@ from typing import Callable
 
 import numpy as np
 
+from ._checks import check_int, is_integer, real_array
 from .algebra import analogy as operator_analogy
 from .algebra import interpolate as operator_interpolate
-from .evaluate import _check_max_shapes, _OperatorIndex, _select, predict, shape_errors, summarize
+from .evaluate import _OperatorIndex, _select, predict, shape_errors, summarize
 from .metrics import d_E, d_R, rigid_align
 from .shape_difference import KINDS, shape_differences
 
@@ -79,7 +80,7 @@ class ShapeAlgebra:
             raise ValueError(f"space must be 'operators' or 'latent', got {self.space!r}.")
         if self.scheme not in SCHEMES:
             raise ValueError(f"scheme must be one of {SCHEMES}, got {self.scheme!r}.")
-        _check_max_shapes(self.max_shapes)
+        check_int("max_shapes", self.max_shapes, none_ok=True)
 
     def shapes(self, shapes) -> np.ndarray:
         """Vertices ``(B, n, 3)`` float64 of indices into the collection or of vertex arrays ``(n, 3)`` / ``(B, n, 3)``."""
@@ -124,33 +125,23 @@ class ShapeAlgebra:
         return X[0] if single else X
 
 
-def _is_index(x) -> bool:
-    return isinstance(x, (int, np.integer)) and not isinstance(x, bool)
-
-
 def _is_single(x) -> bool:
-    return _is_index(x) or np.ndim(x) == 2
+    return is_integer(x) or np.ndim(x) == 2
 
 
 def _as_shapes(collection, shapes) -> np.ndarray:
     n = collection.vertices.shape[1]
-    if _is_index(shapes) or (isinstance(shapes, (list, tuple)) and shapes and all(_is_index(i) for i in shapes)) or (
+    if is_integer(shapes) or (isinstance(shapes, (list, tuple)) and shapes and all(map(is_integer, shapes))) or (
             isinstance(shapes, np.ndarray) and shapes.ndim == 1 and shapes.dtype.kind in "iu"):
         idx = np.atleast_1d(np.asarray(shapes, dtype=np.int64))
         if idx.min() < -len(collection) or idx.max() >= len(collection):
             raise IndexError(f"shape index out of range: the collection has {len(collection)} shapes, got {idx.tolist()}.")
         return collection.vertices[idx].astype(np.float64)
-    try:
-        V = np.asarray(shapes, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"shapes must be indices into the collection or vertices (n, 3) / (B, n, 3) with n = {n}, "
-                        f"got {type(shapes).__name__}.") from None
+    V = real_array("shapes", shapes, hint=f"(indices into the collection, or vertices (n, 3) / (B, n, 3), n = {n})")
     V = V[None] if V.ndim == 2 else V
     if V.ndim != 3 or V.shape[1:] != (n, 3) or len(V) == 0:
         raise ValueError(f"shapes must be vertices (n, 3) or (B, n, 3) on the collection's mesh (n = {n}), or indices "
                          f"into the collection; got an array of shape {np.shape(shapes)}.")
-    if not np.isfinite(V).all():
-        raise ValueError("the shapes' vertices hold NaN or infinite values.")
     return V
 
 
@@ -275,8 +266,7 @@ def analogy_quadruples(collection, kind: str = "pose", n: int = 100, *, seed: in
 
     if kind not in ANALOGY_KINDS:
         raise ValueError(f"kind must be one of {ANALOGY_KINDS}, got {kind!r}.")
-    if not _is_index(n) or n < 1:
-        raise ValueError(f"n must be a positive integer, got {n!r}.")
+    check_int("n", n)
     subjects, pose_idx, sequences = _test_pool(collection)
     if len(subjects) < 2 or len(set(sequences)) < 2:
         raise ValueError(f"analogies need two unseen subjects and two test sequences; this collection has "
@@ -330,8 +320,8 @@ def interpolation_paths(collection, kind: str = "pose", n_paths: int = 10, steps
 
     if kind not in PATH_KINDS:
         raise ValueError(f"kind must be one of {PATH_KINDS}, got {kind!r}.")
-    if not _is_index(n_paths) or n_paths < 1 or not _is_index(steps) or steps < 2:
-        raise ValueError(f"need an integer n_paths >= 1 and steps >= 2, got {n_paths!r} and {steps!r}.")
+    check_int("n_paths", n_paths)
+    check_int("steps", steps, minimum=2)
     subjects, pose_idx, sequences = _test_pool(collection)
     controls = collection.params["controls"]
     t = np.linspace(0, 1, steps)

@@ -28,6 +28,7 @@ from typing import Callable
 
 import numpy as np
 
+from ._checks import check_int, real_array
 from .inner_products import get_inner_product
 from .mesh import edge_face_counts
 from .metrics import d_E, d_R, d_V, rigid_align
@@ -77,13 +78,7 @@ class Method:
     max_shapes: int | None = None
 
     def __post_init__(self):
-        _check_max_shapes(self.max_shapes)
-
-
-def _check_max_shapes(value) -> None:
-    """``max_shapes`` of a method (here and in :class:`opnet.apps.ShapeAlgebra`): a positive integer or ``None``."""
-    if value is not None and (not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1):
-        raise ValueError(f"max_shapes must be a positive integer or None, got {value!r}.")
+        check_int("max_shapes", self.max_shapes, none_ok=True)
 
 
 def predict(net, operators, *, batch_size: int = 256) -> np.ndarray:
@@ -93,12 +88,14 @@ def predict(net, operators, *, batch_size: int = 256) -> np.ndarray:
     ``(N, m, 3)`` for the PointNet autoencoder."""
     import torch
 
+    operators = real_array("operators", operators, dtype=np.float32)
+    check_int("batch_size", batch_size)
     device = next(net.parameters()).device
     net.eval()
     out = []
     with torch.no_grad():
         for s in range(0, len(operators), batch_size):
-            x = torch.as_tensor(np.asarray(operators[s:s + batch_size], dtype=np.float32), device=device)
+            x = torch.as_tensor(operators[s:s + batch_size], device=device)
             out.append(net(x).double().cpu().numpy())
     return np.concatenate(out) if out else np.zeros((0, net.n_vertices, 3))
 
@@ -113,11 +110,7 @@ def decode(net, operators, kinds=KINDS) -> np.ndarray:
     """
     if not hasattr(net, "channels") or not hasattr(net, "k"):
         raise TypeError(f"net must be an OperatorNet (opnet.train.load_model(run_dir)), got {type(net).__name__}.")
-    if hasattr(operators, "detach"):
-        operators = operators.detach().cpu().numpy()
-    ops = np.asarray(operators)
-    if ops.dtype.kind not in "fiu":
-        raise TypeError(f"operators must be real numbers, got dtype {ops.dtype}.")
+    ops = real_array("operators", operators)
     if isinstance(kinds, str):
         raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
     kinds = tuple(get_inner_product(k).name for k in kinds)
@@ -130,8 +123,6 @@ def decode(net, operators, kinds=KINDS) -> np.ndarray:
     if missing:
         raise ValueError(f"the network reads {missing}, which the operators (channels {kinds}) do not hold; "
                          "encode them with kinds=net.channels or all of opnet.KINDS.")
-    if not np.isfinite(batch).all():
-        raise ValueError("operators contain NaN or infinite values.")
     out = predict(net, batch[:, [kinds.index(c) for c in net.channels]])
     return out[0] if single else out
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from ._checks import real_array
 from .spectral import Eigenbasis
 
 __all__ = ["FunctionalMap", "fmap_from_p2p", "fmap_from_soft_map", "identity_fmap"]
@@ -28,9 +29,11 @@ class FunctionalMap:
     def __post_init__(self):
         _check_bases(self.source, self.target)
         shape = (self.target.k, self.source.k)
-        if np.shape(self.matrix) != shape:
+        matrix = real_array("matrix", self.matrix)
+        if matrix.shape != shape:
             raise ValueError(f"a functional map from this source to this target must be (k_target, k_source) = {shape}, "
-                             f"got {np.shape(self.matrix)}.")
+                             f"got {matrix.shape}.")
+        object.__setattr__(self, "matrix", matrix)
 
     def transfer(self, coeffs: np.ndarray) -> np.ndarray:
         """Carry source coefficients ``(k_source, ...)`` to target coefficients ``(k_target, ...)``."""

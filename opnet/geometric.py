@@ -30,7 +30,8 @@ from tqdm.auto import tqdm
 from .inner_products import get_inner_product
 from .shape_difference import KINDS, pinv_psd
 from .spectral import Eigenbasis, cotan_edge_weights
-from .mesh import degenerate_faces, unique_edges
+from ._checks import real_array
+from .mesh import check_shapes, unique_edges
 from .torch_ops import ShapeDifferences
 
 __all__ = ["reconstruct", "truncate_operators", "operator_mismatch", "OPTIMIZERS"]
@@ -39,13 +40,7 @@ OPTIMIZERS = ("lbfgs", "adam")
 
 
 def _as_operators(operators, channels, k) -> torch.Tensor:
-    try:
-        arr = np.asarray(operators.detach().cpu() if isinstance(operators, torch.Tensor) else operators)
-    except Exception as exc:
-        raise TypeError(f"operators must be an array (B, {len(channels)}, {k}, {k}); got {type(operators).__name__} "
-                        f"({exc}).") from None
-    if arr.dtype.kind not in "fiu":
-        raise TypeError(f"operators must hold real numbers, got {arr.dtype}.")
+    arr = real_array("operators", operators)
     if arr.ndim == 3:
         arr = arr[None]
     if arr.ndim != 4 or arr.shape[1:] != (len(channels), k, k):
@@ -54,8 +49,6 @@ def _as_operators(operators, channels, k) -> torch.Tensor:
                          "operators, and the base basis they were computed with.")
     if len(arr) == 0:
         raise ValueError("operators is an empty batch (B = 0); pass at least one shape.")
-    if not np.isfinite(arr).all():
-        raise ValueError("operators contain NaN or infinite values.")
     return torch.tensor(arr, dtype=torch.float64)
 
 
@@ -65,21 +58,13 @@ def _as_init(init, base_basis: Eigenbasis, batch: int) -> torch.Tensor:
         if init != "base":
             raise ValueError(f"init must be 'base' or vertices (B, {len(base)}, 3), got {init!r}.")
         return torch.as_tensor(np.broadcast_to(base, (batch, *base.shape)).copy())
-    arr = np.asarray(init.detach().cpu() if isinstance(init, torch.Tensor) else init)
-    if arr.dtype.kind not in "fiu":
-        raise TypeError(f"init must be 'base' or real vertices (B, {len(base)}, 3), got {arr.dtype} values.")
+    arr = real_array("init", init)
     if arr.ndim == 2:
         arr = np.broadcast_to(arr, (batch, *arr.shape))
     if arr.shape != (batch, *base.shape):
         raise ValueError(f"init must have shape ({batch}, {len(base)}, 3) — one shape per operator set, on the base's "
                          f"{len(base)} vertices — got {arr.shape}.")
-    if not np.isfinite(arr).all():
-        raise ValueError("init contains NaN or infinite coordinates.")
-    bad = degenerate_faces(arr, base_basis.mesh.faces)
-    if bad.any():
-        shape, face = np.argwhere(bad)[0]
-        raise ValueError(f"init has zero-area faces in {int(bad.any(-1).sum())} shapes (first: shape {shape}, face {face}); "
-                         "the cotan weights are undefined there. Start from 'base' or repair those shapes.")
+    check_shapes("init", arr, base_basis.mesh.faces)
     return torch.tensor(arr, dtype=torch.float64)
 
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._checks import is_integer, real_array
 from .spectral import Eigenbasis
 
 __all__ = ["gram_matrix", "recover_embedding"]
@@ -20,9 +21,7 @@ def gram_matrix(basis: Eigenbasis, X: np.ndarray) -> np.ndarray:
     rotations of ``X``.
     """
     _check_basis(basis)
-    X = np.asarray(X, dtype=np.float64)
-    if X.ndim != 2 or X.shape[0] != basis.evecs.shape[0]:
-        raise ValueError(f"X must have shape ({basis.evecs.shape[0]}, d) to match the basis, got {X.shape}.")
+    X = real_array("X", X, (basis.evecs.shape[0], "d"), hint="to match the basis")
     F = basis.project(X)
     return F @ F.T
 
@@ -36,12 +35,10 @@ def recover_embedding(G: np.ndarray, basis: Eigenbasis, dim: int = 3) -> np.ndar
     cannot see). With a full basis the recovery is exact up to that transformation.
     """
     _check_basis(basis)
-    G = np.asarray(G, dtype=np.float64)
     k = basis.k
-    if not isinstance(dim, (int, np.integer)) or not 1 <= dim <= k:
+    G = real_array("G", G, (k, k), hint="to match the basis")
+    if not is_integer(dim) or not 1 <= dim <= k:
         raise ValueError(f"dim must be an integer in [1, k={k}], got {dim!r}.")
-    if G.shape != (k, k):
-        raise ValueError(f"G must be ({k}, {k}) to match the basis, got {G.shape}.")
     w, U = np.linalg.eigh(0.5 * (G + G.T))
     top = np.argsort(w)[::-1][:dim]
     F = U[:, top] * np.sqrt(np.maximum(w[top], 0.0))

@@ -20,8 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._checks import describe
 from .mesh import unique_edges
-from .spectral import _edge_weights, vertex_areas
+from .spectral import _edge_weights, _vertex_areas
 
 __all__ = [
     "InnerProduct",
@@ -30,6 +31,7 @@ __all__ = [
     "ExtrinsicInnerProduct",
     "INNER_PRODUCTS",
     "get_inner_product",
+    "checked_gram",
 ]
 
 
@@ -101,7 +103,7 @@ class AreaInnerProduct(InnerProduct):
     name = "area"
 
     def project(self, vertices, faces, evecs):
-        return _weighted_gram(evecs, vertex_areas(vertices, faces))
+        return _weighted_gram(evecs, _vertex_areas(vertices, faces))
 
     project_batch = project
 
@@ -112,7 +114,7 @@ class AreaInnerProduct(InnerProduct):
         the identity map and, unlike the unlumped form, does not shrink the high frequencies that a
         barycentric ``P`` averages.
         """
-        return _weighted_gram(evecs, to_base.T @ vertex_areas(vertices, faces))
+        return _weighted_gram(evecs, to_base.T @ _vertex_areas(vertices, faces))
 
 
 class ConformalInnerProduct(InnerProduct):
@@ -140,7 +142,7 @@ class ExtrinsicInnerProduct(InnerProduct):
     name = "extrinsic"
 
     def project(self, vertices, faces, evecs):
-        return _extrinsic_gram(evecs, vertex_areas(vertices, faces), vertices)
+        return _extrinsic_gram(evecs, _vertex_areas(vertices, faces), vertices)
 
     project_batch = project
 
@@ -150,7 +152,7 @@ class ExtrinsicInnerProduct(InnerProduct):
 
         Unlike the area's, this is an approximation of ``(P Φ)ᵀ E^D (P Φ)``: the spread of the positions
         around each mean is dropped. It is exact for the identity map."""
-        a = vertex_areas(vertices, faces)
+        a = _vertex_areas(vertices, faces)
         mass = to_base.T @ a
         moment = to_base.T @ (a[:, None] * vertices)
         where = mass > 0
@@ -171,6 +173,27 @@ def _extrinsic_gram(evecs: np.ndarray, a: np.ndarray, vertices: np.ndarray) -> n
     pa, pu, py = evecs.T @ a[..., None], evecs.T @ u[..., None], evecs.T @ y  # (..., k, 1|3)
     low_rank = pu @ np.swapaxes(pa, -1, -2) + pa @ np.swapaxes(pu, -1, -2) - 2 * py @ np.swapaxes(py, -1, -2)
     return _weighted_gram(evecs, rowsum) - low_rank
+
+
+def checked_gram(ip: InnerProduct, method: str, *args) -> np.ndarray:
+    """``ip.<method>(*args)`` (``"project"``, ``"project_batch"`` or ``"pull_back"``), checked: a real, finite,
+    symmetric ``(k, k)`` matrix (``(B, k, k)`` for a batch), ``k`` the number of basis functions (the last
+    argument's columns). A user-defined inner product that returns anything else is named in the error.
+    """
+    evecs = args[-1]
+    shape = (len(args[0]), evecs.shape[1], evecs.shape[1]) if method == "project_batch" else (evecs.shape[1],) * 2
+    K = getattr(ip, method)(*args)
+    where = f"{type(ip).__name__}.{method} (inner product {ip.name!r})"
+    if not isinstance(K, np.ndarray) or K.dtype.kind not in "fiu" or K.shape != shape:
+        raise ValueError(f"{where} returned {describe(K)}; it must return Φᵀ M Φ, a real array of shape {shape} "
+                         f"(k = {shape[-1]} basis functions: evecs.shape[1]).")
+    if not np.isfinite(K).all():
+        raise ValueError(f"{where} returned NaN or infinite values; check the operator M on this shape.")
+    scale = np.abs(K).max(axis=(-2, -1), keepdims=True)
+    if np.any(np.abs(K - np.swapaxes(K, -1, -2)) > 1e-8 * scale):
+        raise ValueError(f"{where} returned a non-symmetric matrix; Φᵀ M Φ of an inner product is symmetric "
+                         "(symmetrise M, e.g. (M + Mᵀ) / 2).")
+    return K
 
 
 INNER_PRODUCTS = {ip.name: ip for ip in (AreaInnerProduct(), ConformalInnerProduct(), ExtrinsicInnerProduct())}

@@ -33,7 +33,7 @@ from .fmaps import FunctionalMap
 from .mesh import Mesh, closest_points_on_faces, edge_face_counts, face_areas
 from .metrics import mesh_volume
 from .shape_difference import KINDS, _check_base, base_pinvs, shape_differences
-from .inner_products import get_inner_product
+from .inner_products import checked_gram, get_inner_product
 from .spectral import Eigenbasis, eigenbasis
 
 __all__ = ["SurfaceMap", "MapQualityWarning", "compute_map", "map_from_p2p", "closest_point_map", "encode",
@@ -283,8 +283,8 @@ def operators_through_map(surface_map, kinds=KINDS) -> np.ndarray:
         raise ValueError("kinds is empty: ask for at least one of opnet.KINDS (or an InnerProduct).")
     ips = [get_inner_product(kind) for kind in kinds]
     pinvs = base_pinvs(basis, ips)
-    out = np.stack([np.stack([k0_pinv @ ip.pull_back(sm.mesh.vertices, sm.mesh.faces, sm.to_base, basis.evecs)
-                              for ip, k0_pinv in zip(ips, pinvs)]) for sm in maps])
+    out = np.stack([np.stack([k0_pinv @ checked_gram(ip, "pull_back", sm.mesh.vertices, sm.mesh.faces, sm.to_base,
+                                                     basis.evecs) for ip, k0_pinv in zip(ips, pinvs)]) for sm in maps])
     return out[0] if single else out
 
 

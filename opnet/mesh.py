@@ -9,12 +9,14 @@ from __future__ import annotations
 from functools import cached_property
 from pathlib import Path
 
+import warnings
+
 import numpy as np
 import potpourri3d as pp3d
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["Mesh", "MeshError", "load_mesh", "unique_edges", "edge_face_counts", "face_areas", "degenerate_faces",
+__all__ = ["Mesh", "MeshError", "MeshWarning", "face_quality", "check_shapes", "span", "load_mesh", "unique_edges", "edge_face_counts", "face_areas", "degenerate_faces",
            "farthest_first", "furthest_vertices", "vertex_faces", "closest_points_on_faces"]
 
 _LOADABLE = (".ply", ".obj", ".off", ".stl")
@@ -123,10 +125,72 @@ def triangle_areas(corners: np.ndarray) -> np.ndarray:
     return 0.5 * np.linalg.norm(cross, axis=-1)
 
 
+# A triangle's quality q = 4√3 · area / (sum of its squared edge lengths): 1 for an equilateral triangle, 0 for
+# a collapsed one, the same at every scale. Its cotan weights grow like 1/q: measured on the toy finger, a
+# single face of quality q changes the conformal operator by ≈ 0.004 / q (relative Frobenius), so
+# below WARN_QUALITY one face outweighs the whole shape, and below REFUSE_QUALITY the weights are noise.
+# Generated bodies, heads and hands have q ≥ 0.004.
+WARN_QUALITY = 1e-4
+REFUSE_QUALITY = 1e-8
+# Bounding-box diagonals outside this range under/overflow float64 areas and the extrinsic operator (∝ length⁶).
+SPAN_RANGE = (1e-40, 1e40)
+
+
+class MeshWarning(UserWarning):
+    """A mesh that the operators can be built on, but badly (e.g. near-degenerate faces); the message says why."""
+
+
+def span(vertices: np.ndarray) -> np.ndarray:
+    """Bounding-box diagonal ``(...)`` of shapes ``(..., n, 3)`` (length unit), without overflow for large coordinates."""
+    extent = vertices.max(-2) - vertices.min(-2)
+    scale = extent.max(-1, keepdims=True)
+    unit = np.where(scale > 0, scale, 1.0)
+    with np.errstate(invalid="ignore"):
+        return scale[..., 0] * np.linalg.norm(extent / unit, axis=-1)
+
+
+def face_quality(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Scale-free triangle quality ``4√3 · area / Σ edge²`` ``(..., m)``: 1 equilateral, 0 collapsed.
+
+    Computed on each shape ``(..., n, 3)`` divided by its largest coordinate, so that it neither under- nor
+    overflows at extreme scales; a shape whose vertices all coincide has quality 0.
+    """
+    scale = np.abs(vertices).max(axis=(-2, -1), keepdims=True)
+    corners = (vertices / np.where(scale > 0, scale, 1.0))[..., faces, :]
+    edges2 = sum(np.sum((corners[..., (c + 1) % 3, :] - corners[..., c, :]) ** 2, axis=-1) for c in range(3))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.nan_to_num(4 * np.sqrt(3) * triangle_areas(corners) / edges2)
+
+
 def degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Mask ``(..., m)`` of faces whose area is zero relative to the bounding box of their shape."""
-    diag2 = np.sum((vertices.max(-2) - vertices.min(-2)) ** 2, axis=-1)
-    return face_areas(vertices, faces) <= 1e-12 * diag2[..., None]
+    """Mask ``(..., m)`` of faces too close to collapsed for cotan weights: quality below ``REFUSE_QUALITY``."""
+    return face_quality(vertices, faces) < REFUSE_QUALITY
+
+
+def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_size: int = 64) -> None:
+    """Refuse shapes ``(B, n, 3)`` sharing ``faces`` whose scale is out of range or that have collapsed faces
+    (``ValueError`` naming ``name`` and the first shape), and warn (:class:`MeshWarning`) about near-degenerate
+    ones. Checked ``batch_size`` shapes at a time (the triangles of a whole collection take gigabytes)."""
+    quality = np.concatenate([np.zeros(0)] + [face_quality(vertices[s:s + batch_size], faces).min(-1)
+                                              for s in range(0, len(vertices), batch_size)])
+    spans = span(vertices)
+    bad = ((spans > 0) & (spans < SPAN_RANGE[0])) | ~(spans <= SPAN_RANGE[1])  # 0: all faces collapsed, below
+    if bad.any():
+        i = np.flatnonzero(bad)[0]
+        raise ValueError(f"{name}: {bad.sum()} shapes span a bounding-box diagonal outside {list(SPAN_RANGE)} length "
+                         f"units (first: shape {i}, {spans[i]:.3g}), where float64 areas and the extrinsic operator "
+                         "under- or overflow; rescale the coordinates.")
+    for what, limit in (("zero-area (collapsed)", REFUSE_QUALITY), ("near-degenerate", WARN_QUALITY)):
+        low = quality < limit
+        if low.any():
+            i = np.flatnonzero(low)[0]
+            text = (f"{name}: {low.sum()} shapes have {what} faces (quality 4√3·area/Σedge² below {limit:g}; first: "
+                    f"shape {i}, quality {quality[i]:.2g}); ")
+            if limit == REFUSE_QUALITY:
+                raise ValueError(text + "cotan weights are undefined there. Drop or repair those shapes.")
+            warnings.warn(text + "their cotan weights (∝ 1/quality) dominate the conformal operator.", MeshWarning,
+                          stacklevel=3)
+            break
 
 
 def edge_face_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -200,6 +264,22 @@ def _components(f: np.ndarray, n: int) -> tuple[int, np.ndarray]:
     return connected_components(adj, directed=False)
 
 
+def _components_message(v: np.ndarray, f: np.ndarray, labels: np.ndarray, n_comp: int) -> str:
+    sizes = np.sort(np.bincount(labels))[::-1]
+    unused = len(v) - len(np.unique(f))
+    detail = f" ({unused} of them are vertices used by no face)" if unused else ""
+    text = (f"the mesh has {n_comp} connected components{detail}, sizes {sizes[:5].tolist()}{'...' if n_comp > 5 else ''}; "
+            "the Laplacian of a disconnected mesh has several zero eigenvalues. ")
+    repeats = len(v) - len(np.unique(v, axis=0))
+    if repeats:
+        return text + (f"{repeats} vertices repeat the position of another (a triangle soup, as STL files and some "
+                       "exporters write): merge them first, e.g. tm = trimesh.Trimesh(vertices, faces) (which merges "
+                       "them), then opnet.Mesh(tm.vertices, tm.faces).")
+    if sizes[0] < 4:
+        return text + "No component has at least 4 vertices, as a surface needs: pass a connected triangle mesh."
+    return text + "Pass keep_largest_component=True to keep the largest one."
+
+
 class Mesh:
     """A validated triangle mesh.
 
@@ -221,7 +301,14 @@ class Mesh:
     ------
     MeshError
         NaN/inf coordinates, wrong shapes or dtypes, face indices out of range,
-        zero-area faces, non-manifold edges, several components, fewer than 4 vertices.
+        collapsed faces (quality ``4√3·area/Σedge²`` below ``1e-8``), non-manifold edges, several
+        components, fewer than 4 vertices, a bounding-box diagonal outside ``[1e-40, 1e40]`` (unless
+        ``normalize_area``).
+
+    Warns
+    -----
+    MeshWarning
+        Near-degenerate faces (quality below ``1e-4``), whose cotan weights dominate the conformal operator.
     """
 
     def __init__(self, vertices, faces, *, keep_largest_component: bool = False, normalize_area: bool = False):
@@ -233,19 +320,20 @@ class Mesh:
         n_comp, labels = _components(f, len(v))
         if n_comp > 1:
             if not keep_largest_component:
-                sizes = np.sort(np.bincount(labels))[::-1]
-                unused = len(v) - len(np.unique(f))
-                detail = f" ({unused} of them are vertices used by no face)" if unused else ""
-                raise MeshError(
-                    f"the mesh has {n_comp} connected components{detail}, sizes {sizes[:5].tolist()}"
-                    f"{'...' if n_comp > 5 else ''}; the Laplacian of a disconnected mesh has several zero "
-                    "eigenvalues. Pass keep_largest_component=True to keep the largest one."
-                )
+                raise MeshError(_components_message(v, f, labels, n_comp))
+            if np.bincount(labels).max() < 4:
+                raise MeshError(_components_message(v, f, labels, n_comp))
             v, f, kept = _largest_component(v, f, labels)
-            if len(v) < 4:
-                raise MeshError(f"the largest component has {len(v)} vertices; at least 4 are needed.")
+        diagonal = float(span(v))
+        if not normalize_area and (0 < diagonal < SPAN_RANGE[0] or not diagonal <= SPAN_RANGE[1]):  # 0: collapsed
+            raise MeshError(
+                f"the mesh spans {diagonal:.3g} length units (bounding-box diagonal), outside {list(SPAN_RANGE)}, where "
+                "float64 areas and the extrinsic operator (∝ length⁶) under- or overflow; rescale the coordinates "
+                f"(e.g. vertices / {diagonal:.3g}) or pass normalize_area=True."
+            )
         self._check_faces(v, f)
-        if normalize_area:
+        if normalize_area:  # in coordinates scaled to a unit box first, so that any finite scale works
+            v = v / diagonal
             a = face_areas(v, f)
             centroid = (a[:, None] * v[f].mean(axis=1)).sum(0) / a.sum()
             v = (v - centroid) / np.sqrt(a.sum())
@@ -264,13 +352,22 @@ class Mesh:
                 f"{repeated.sum()} faces repeat a vertex (first: face {np.flatnonzero(repeated)[0]} = {f[repeated][0].tolist()}); "
                 "remove degenerate faces, e.g. trimesh's mesh.update_faces(mesh.nondegenerate_faces())."
             )
-        tiny = degenerate_faces(v, f)
-        if tiny.any():
-            raise MeshError(
-                f"{tiny.sum()} faces have zero area (first: face {np.flatnonzero(tiny)[0]}); cotan weights are undefined "
-                "there. Remove them or merge their collinear/duplicate vertices (trimesh: merge_vertices, "
-                "update_faces(nondegenerate_faces()))."
-            )
+        quality = face_quality(v, f)
+        for limit in (REFUSE_QUALITY, WARN_QUALITY):
+            low = np.flatnonzero(quality < limit)
+            if len(low) == 0:
+                continue
+            worst = low[np.argsort(quality[low])][:5].tolist()
+            others = f", then faces {worst[1:]}" if len(worst) > 1 else ""
+            text = (f"{len(low)} faces have quality 4√3·area/Σedge² below {limit:g} (worst: face {worst[0]}, quality "
+                    f"{quality[worst[0]]:.2g}{others}; an equilateral triangle has 1)")
+            if limit == REFUSE_QUALITY:
+                raise MeshError(text + "; they have zero area or nearly, and cotan weights are undefined there. Remove them or merge "
+                                "their collinear/duplicate vertices (trimesh: merge_vertices, update_faces("
+                                "nondegenerate_faces())).")
+            warnings.warn(text + ": their cotan weights (∝ 1/quality) dominate the conformal operator. Remesh "
+                          "(e.g. isotropic remeshing in pymeshlab) or leave the conformal channel out.", MeshWarning,
+                          stacklevel=3)
         _, counts = edge_face_counts(f)
         if (counts > 2).any():
             raise MeshError(
@@ -306,6 +403,10 @@ class Mesh:
 
     def with_vertices(self, vertices) -> "Mesh":
         """The same connectivity with new coordinates ``(n, 3)`` (validated)."""
+        shape = np.shape(vertices)
+        if len(shape) == 2 and shape[0] != self.n_vertices:
+            raise MeshError(f"the coordinates are for {shape[0]} vertices, this mesh has {self.n_vertices}: pass new "
+                            f"coordinates ({self.n_vertices}, 3) of the same vertices, or a Mesh of its own (and a map).")
         return Mesh(vertices, self.faces)
 
     def __repr__(self) -> str:

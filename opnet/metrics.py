@@ -3,15 +3,17 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._checks import real_array
 from .mesh import _as_faces, edge_face_counts, unique_edges
 
 __all__ = ["kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume"]
 
 
-def _pair(X, Y) -> tuple[np.ndarray, np.ndarray]:
-    X, Y = np.asarray(X, dtype=np.float64), np.asarray(Y, dtype=np.float64)
-    if X.shape != Y.shape or X.ndim < 2 or X.shape[-1] != 3:
-        raise ValueError(f"point sets must have the same shape (..., n, 3), got {X.shape} and {Y.shape}.")
+def _pair(X, Y, names=("X", "Y")) -> tuple[np.ndarray, np.ndarray]:
+    X, Y = real_array(names[0], X), real_array(names[1], Y)
+    if X.shape != Y.shape or X.ndim < 2 or X.shape[-1] != 3 or X.shape[-2] == 0:
+        raise ValueError(f"{names[0]} and {names[1]} must have the same shape (..., n, 3) with n >= 1 points, got "
+                         f"{X.shape} and {Y.shape}.")
     return X, Y
 
 
@@ -39,7 +41,7 @@ def rigid_align(X, Y) -> np.ndarray:
 
 def d_R(X_gt, X_recon) -> np.ndarray:
     """Eq. 9 (the loss ``L``): mean squared vertex error after rigidly aligning ``X_recon`` to ``X_gt`` (length²)."""
-    X_gt, X_recon = _pair(X_gt, X_recon)
+    X_gt, X_recon = _pair(X_gt, X_recon, ("X_gt", "X_recon"))
     return np.mean(np.sum((rigid_align(X_recon, X_gt) - X_gt) ** 2, axis=-1), axis=-1)
 
 
@@ -48,7 +50,7 @@ def mesh_volume(vertices, faces) -> np.ndarray:
 
     Positive for outward-oriented faces. Only meaningful for a closed surface.
     """
-    v = np.asarray(vertices, dtype=np.float64)
+    v = real_array("vertices", vertices, (..., "n", 3))
     v = v[..., _as_faces(faces, v.shape[-2]), :]
     return np.einsum("...i,...i->...", v[..., 0, :], np.cross(v[..., 1, :], v[..., 2, :])).sum(-1) / 6.0
 
@@ -59,7 +61,7 @@ def d_V(X_gt, X_recon, faces) -> np.ndarray:
     Volumes are taken unsigned, so a mirror image has the same volume. Raises
     ``ValueError`` for an open mesh, whose enclosed volume is undefined.
     """
-    X_gt, X_recon = _pair(X_gt, X_recon)
+    X_gt, X_recon = _pair(X_gt, X_recon, ("X_gt", "X_recon"))
     f = _as_faces(faces, X_gt.shape[-2])
     if np.any(edge_face_counts(f)[1] != 2):
         raise ValueError("d_V needs a closed mesh (every edge in exactly two faces); this one has boundary edges.")
@@ -69,7 +71,7 @@ def d_V(X_gt, X_recon, faces) -> np.ndarray:
 
 def d_E(X_gt, X_recon, faces) -> np.ndarray:
     """Mean relative edge-length error ``mean |l_gt − l_recon| / l_gt`` over the unique edges of ``faces``."""
-    X_gt, X_recon = _pair(X_gt, X_recon)
+    X_gt, X_recon = _pair(X_gt, X_recon, ("X_gt", "X_recon"))
     e = unique_edges(_as_faces(faces, X_gt.shape[-2]))
 
     def lengths(X):

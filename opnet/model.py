@@ -13,6 +13,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from ._checks import describe, real_array
 from .shape_difference import KINDS
 
 __all__ = ["OperatorNet", "PointNetAutoencoder", "build_model", "rigid_alignment_loss", "kabsch_torch", "VARIANTS",
@@ -20,6 +21,34 @@ __all__ = ["OperatorNet", "PointNetAutoencoder", "build_model", "rigid_alignment
 
 #: Named network settings: the paper's architecture (fed ``D − I``), and this project's variant.
 VARIANTS = {"paper": dict(), "ours": dict(standardize=True, residual=True)}
+
+
+def as_input(name: str, x, module: nn.Module, shape: tuple, shape_text: str) -> torch.Tensor:
+    """``x`` as a tensor of ``module``'s dtype on its device, of shape ``shape`` (``None``: any size).
+
+    Tensors, numpy arrays and lists of real numbers are converted when no precision is lost (float32 or lower
+    for a float32 network, integers); float64 for a float32 network is refused with the fix, as are complex,
+    non-numeric and wrongly shaped values. ``TypeError``/``ValueError`` name ``name`` and ``shape_text``.
+    """
+    param = next(module.parameters())
+    fix = (f"pass {shape_text} real values in {str(param.dtype).replace('torch.', '')} (x.float() or "
+           "np.float32 arrays), or use opnet.evaluate.predict(net, x), which converts and batches")
+    if not isinstance(x, torch.Tensor):
+        try:  # nested lists hold numbers of no declared precision: read in the network's
+            arr = np.asarray(x) if isinstance(x, np.ndarray) else np.asarray(x, dtype=str(param.dtype)[6:])
+        except (ValueError, TypeError):
+            arr = np.asarray(None)
+        if arr.dtype.kind not in "fiu":
+            raise TypeError(f"{name} must be a tensor {shape_text} of real numbers, got {describe(x)}; {fix}.")
+        x = torch.tensor(arr)
+    if x.is_complex() or x.dtype == torch.bool:
+        raise TypeError(f"{name} must hold real numbers, got {x.dtype}; {fix}.")
+    if x.is_floating_point() and x.dtype != param.dtype and x.element_size() > param.element_size():
+        raise TypeError(f"{name} is {str(x.dtype).replace('torch.', '')} but this network computes in "
+                        f"{str(param.dtype).replace('torch.', '')}, which would round it; {fix} (or net.double()).")
+    if x.ndim != len(shape) or any(s is not None and a != s for a, s in zip(x.shape, shape)):
+        raise ValueError(f"{name} must have shape {shape_text}, got {tuple(x.shape)}.")
+    return x.to(dtype=param.dtype, device=param.device)
 
 
 class OperatorNet(nn.Module):
@@ -76,10 +105,8 @@ class OperatorNet(nn.Module):
         self.decoder = dense_decoder(width * size * size, hidden, n_vertices)
 
     def forward(self, operators: torch.Tensor) -> torch.Tensor:
-        expected = (len(self.channels), self.k, self.k)
-        if operators.ndim != 4 or tuple(operators.shape[1:]) != expected:
-            raise ValueError(f"OperatorNet expects operators of shape (B, {expected[0]}, {self.k}, {self.k}) for channels "
-                             f"{self.channels}, got {tuple(operators.shape)}.")
+        operators = as_input("operators", operators, self, (None, len(self.channels), self.k, self.k),
+                             f"(B, {len(self.channels)}, {self.k}, {self.k}) (channels {self.channels})")
         if (self.standardize or self.residual) and not self.statistics_set:
             raise RuntimeError("this OperatorNet standardizes its inputs or decodes from the base, but its statistics "
                                "are not set: call net.set_statistics(train_operators, base_vertices) first (fit does).")
@@ -167,20 +194,14 @@ class PointNetAutoencoder(nn.Module):
         self.point_index.copy_(torch.from_numpy(index))
         return self
 
-    def _check(self, vertices: torch.Tensor) -> None:
-        if vertices.ndim != 3 or tuple(vertices.shape[1:]) != (self.n_vertices, 3):
-            raise ValueError(f"PointNetAutoencoder expects vertices of shape (B, {self.n_vertices}, 3), got "
-                             f"{tuple(vertices.shape)}.")
-
     def encode(self, vertices: torch.Tensor) -> torch.Tensor:
         """Vertices ``(B, n, 3)`` → codes ``(B, latent)`` (from the ``n_points`` read)."""
-        self._check(vertices)
+        vertices = as_input("vertices", vertices, self, (None, self.n_vertices, 3), f"(B, {self.n_vertices}, 3)")
         return self.point_mlp(vertices[:, self.point_index]).amax(dim=1)
 
     def decode(self, codes: torch.Tensor) -> torch.Tensor:
         """Codes ``(B, latent)`` → vertices ``(B, n, 3)``."""
-        if codes.ndim != 2 or codes.shape[1] != self.latent:
-            raise ValueError(f"PointNetAutoencoder decodes codes of shape (B, {self.latent}), got {tuple(codes.shape)}.")
+        codes = as_input("codes", codes, self, (None, self.latent), f"(B, {self.latent})")
         return self.decoder(codes).view(-1, self.n_vertices, 3)
 
     def forward(self, vertices: torch.Tensor) -> torch.Tensor:
@@ -238,13 +259,23 @@ def rigid_alignment_loss(pred: torch.Tensor, target: torch.Tensor, reduction: st
     the gradient of the minimum (Danskin's theorem), so no gradient flows through the SVD and it stays finite
     even where singular values coincide. Invariant to rigid motions of ``pred``.
     """
+    if not isinstance(pred, torch.Tensor) or not pred.is_floating_point():
+        raise TypeError(f"pred must be a floating-point tensor (B, n, 3) (the network's output), got {describe(pred)}.")
+    if not isinstance(target, torch.Tensor):  # e.g. numpy coordinates: converted without loss
+        target = torch.as_tensor(real_array("target", target), device=pred.device)
+    elif target.is_complex() or not target.is_floating_point():
+        raise TypeError(f"target must be a floating-point tensor (B, n, 3), got {describe(target)}.")
     if pred.shape != target.shape or pred.ndim != 3 or pred.shape[-1] != 3:
         raise ValueError(f"pred and target must both be (B, n, 3), got {tuple(pred.shape)} and {tuple(target.shape)}.")
     if pred.shape[0] == 0:
         raise ValueError("the batch is empty (B = 0): the loss of no shapes is undefined; pass at least one shape.")
     if reduction not in ("mean", "none"):
         raise ValueError(f"reduction must be 'mean' or 'none', got {reduction!r}.")
-    R, t = kabsch_torch(pred, target)
+    try:
+        R, t = kabsch_torch(pred, target)
+    except torch.linalg.LinAlgError:  # the SVD refuses non-finite input: say which argument holds it
+        name = "pred" if not torch.isfinite(pred).all() else "target"
+        raise ValueError(f"{name} contains NaN or infinite coordinates.") from None
     aligned = pred @ R.transpose(1, 2) + t[:, None, :]
     per_shape = ((aligned - target) ** 2).sum(-1).mean(-1)
     return per_shape.mean() if reduction == "mean" else per_shape

@@ -32,11 +32,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ._checks import check_int
 from ._files import atomic_write
 from .evaluate import (TEST_SETS, _select, base_shape_method, channel_label, evaluate, evenly_spaced, geometric_method,
                        nearest_neighbour_method, operatornet_method, pointnet_method, refined_method, test_set_indices)
 from .shape_difference import KINDS
-from .train import CHANNEL_SETS, _check_positive
+from .train import CHANNEL_SETS
 
 __all__ = ["reproduce", "run_path", "table1_networks", "comp_networks", "discretisation_rows", "discretisation_indices",
            "discretisation_figure",
@@ -322,7 +323,7 @@ def _maps_of(mapped, coll, resolution: str, maps: str, k: int) -> bool:
 
 def discretisation_indices(coll, budget: Budget) -> np.ndarray:
     """The ``test`` shapes of :func:`discretisation_rows`: at most ``budget.discretisation_shapes``, evenly spaced."""
-    _check_positive("budget.discretisation_shapes", budget.discretisation_shapes)
+    check_int("budget.discretisation_shapes", budget.discretisation_shapes)
     return evenly_spaced(test_set_indices(coll, "test"), budget.discretisation_shapes)
 
 

@@ -16,13 +16,18 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .fmaps import FunctionalMap
-from .inner_products import get_inner_product
-from .mesh import Mesh, degenerate_faces
+from .inner_products import checked_gram, get_inner_product
+from ._checks import check_int, real_array
+from .mesh import Mesh, check_shapes
 from .spectral import Eigenbasis
 
 __all__ = ["shape_difference", "shape_differences", "distortion_function", "KINDS", "pinv_psd"]
 
 KINDS = ("area", "conformal", "extrinsic")
+
+
+class NotPositiveError(ValueError):
+    """A matrix given as positive semi-definite has clearly negative eigenvalues."""
 
 
 def pinv_psd(K: np.ndarray, rtol: float | None = None) -> np.ndarray:
@@ -31,10 +36,18 @@ def pinv_psd(K: np.ndarray, rtol: float | None = None) -> np.ndarray:
     Eigenvalues below ``rtol`` times the largest are treated as zero (e.g. the constant
     function in the kernel of ``Λ`` or of ``Φᵀ E^D Φ``, which is ~1e-16 relative in
     practice). The default ``10 k ε`` keeps the genuine modes of very thin meshes.
+    Eigenvalues below ``-1e-6`` times the largest magnitude raise a ``ValueError``: the
+    matrix is not PSD, so it is no inner product.
     """
+    K = real_array("K", K)
+    if K.ndim != 2 or K.shape[0] != K.shape[1]:
+        raise ValueError(f"K must be a square (k, k) matrix, got shape {K.shape}.")
     K = 0.5 * (K + K.T)
     rtol = 10 * len(K) * np.finfo(float).eps if rtol is None else rtol
     w, U = np.linalg.eigh(K)
+    if w.size and w.min() < -1e-6 * np.abs(w).max():
+        raise NotPositiveError(f"the matrix is not positive semi-definite (eigenvalue {w.min():.3g}, largest "
+                               f"{w.max():.3g}); an inner product's Φᵀ M Φ must be, so M must be.")
     keep = w > rtol * max(w.max(), 0.0)
     return (U[:, keep] / w[keep]) @ U[:, keep].T
 
@@ -42,7 +55,13 @@ def pinv_psd(K: np.ndarray, rtol: float | None = None) -> np.ndarray:
 def base_pinvs(base_basis: Eigenbasis, kinds) -> list[np.ndarray]:
     """``K_0⁺`` ``(k, k)`` of each kind on the base: the left factor of every shape difference ``D = K_0⁺ K``."""
     base = base_basis.mesh
-    return [pinv_psd(get_inner_product(kind).project(base.vertices, base.faces, base_basis.evecs)) for kind in kinds]
+    out = []
+    for ip in map(get_inner_product, kinds):
+        try:
+            out.append(pinv_psd(checked_gram(ip, "project", base.vertices, base.faces, base_basis.evecs)))
+        except NotPositiveError as exc:
+            raise ValueError(f"{type(ip).__name__}.project (inner product {ip.name!r}) on the base: {exc}") from None
+    return out
 
 
 def _check_base(base_basis) -> None:
@@ -80,7 +99,7 @@ def shape_difference(base_basis: Eigenbasis, target, kind="area", fmap: Function
                 f"the target has {target.n_vertices} vertices and the base {base.n_vertices}: without a 1-1 "
                 "correspondence pass fmap=opnet.fmap_from_p2p(...) or opnet.fmap_from_soft_map(...)."
             )
-        Ki = ip.project(target.vertices, target.faces, base_basis.evecs)
+        Ki = checked_gram(ip, "project", target.vertices, target.faces, base_basis.evecs)
     else:
         if not isinstance(fmap, FunctionalMap):
             raise TypeError(f"fmap must be an opnet.FunctionalMap, got {type(fmap).__name__}.")
@@ -90,7 +109,7 @@ def shape_difference(base_basis: Eigenbasis, target, kind="area", fmap: Function
         if t is not target and not (np.array_equal(t.vertices, target.vertices) and np.array_equal(t.faces, target.faces)):
             raise ValueError("fmap.target is the eigenbasis of another mesh than target; pass the mesh the map goes to.")
         C = fmap.matrix
-        Ki = C.T @ ip.project(t.vertices, t.faces, fmap.target.evecs) @ C
+        Ki = C.T @ checked_gram(ip, "project", t.vertices, t.faces, fmap.target.evecs) @ C
     return base_pinvs(base_basis, [ip])[0] @ Ki
 
 
@@ -123,24 +142,10 @@ def shape_differences(
     """
     _check_base(base_basis)
     base = base_basis.mesh
-    vertices = np.asarray(vertices, dtype=np.float64)
-    if vertices.ndim != 3 or vertices.shape[1:] != base.vertices.shape:
-        raise ValueError(
-            f"vertices must have shape (B, {base.n_vertices}, 3) to share the base's faces, got {vertices.shape}."
-        )
-    if not np.isfinite(vertices).all():
-        raise ValueError("vertices contain NaN or infinite values.")
-    if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
-        raise ValueError(f"batch_size must be a positive integer, got {batch_size!r}.")
+    vertices = real_array("vertices", vertices, ("B", base.n_vertices, 3), hint="to share the base's faces")
+    check_int("batch_size", batch_size)
+    check_shapes("vertices", vertices, base.faces, batch_size=batch_size)
     starts = range(0, len(vertices), batch_size)
-    # checked batch by batch: the triangles of all shapes at once can take gigabytes
-    bad = np.concatenate([np.zeros(0, bool)] + [degenerate_faces(vertices[s : s + batch_size], base.faces).any(axis=-1)
-                                                for s in starts])
-    if bad.any():
-        raise ValueError(
-            f"{bad.sum()} shapes have zero-area faces (first: shape {np.flatnonzero(bad)[0]}); cotan weights are "
-            "undefined there. Drop or repair those shapes."
-        )
     if isinstance(kinds, str):
         raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
     ips = [get_inner_product(kind) for kind in kinds]
@@ -151,7 +156,7 @@ def shape_differences(
     for s in tqdm(starts, desc="shape differences", unit="batch", disable=not show):
         chunk = vertices[s : s + batch_size]
         for c, (ip, kp) in enumerate(zip(ips, k0_pinv)):
-            out[s : s + len(chunk), c] = kp @ ip.project_batch(chunk, faces, phi)
+            out[s : s + len(chunk), c] = kp @ checked_gram(ip, "project_batch", chunk, faces, phi)
     return out
 
 
@@ -163,9 +168,7 @@ def distortion_function(D: np.ndarray, base_basis: Eigenbasis) -> np.ndarray:
     chosen so that its largest entry is positive; it is ``A``-normalised on the base.
     """
     _check_base(base_basis)
-    D = np.asarray(D, dtype=np.float64)
-    if D.shape != (base_basis.k, base_basis.k):
-        raise ValueError(f"D must be ({base_basis.k}, {base_basis.k}) to match the base basis, got {D.shape}.")
+    D = real_array("D", D, (base_basis.k, base_basis.k), hint="to match the base basis")
     w, V = np.linalg.eig(D)
     f = base_basis.evecs @ np.real(V[:, np.argmax(w.real)])
     f /= np.sqrt(np.sum(base_basis.mass * f**2))

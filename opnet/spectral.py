@@ -14,7 +14,8 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg
 
-from .mesh import Mesh, face_areas, triangle_areas, unique_edges
+from ._checks import real_array
+from .mesh import Mesh, _as_faces, face_areas, triangle_areas, unique_edges
 
 __all__ = ["Eigenbasis", "eigenbasis", "cotan_edge_weights", "vertex_areas"]
 
@@ -50,8 +51,11 @@ class Eigenbasis:
         return len(self.evals)
 
     def project(self, f: np.ndarray) -> np.ndarray:
-        """Coefficients ``Φᵀ A f`` of vertex functions ``f`` ``(n,)`` or ``(n, d)``."""
-        return self.evecs.T @ (self.mass.reshape(-1, *([1] * (np.ndim(f) - 1))) * f)
+        """Coefficients ``Φᵀ A f`` ``(k,)`` or ``(k, d)`` of vertex functions ``f`` ``(n,)`` or ``(n, d)``."""
+        f = real_array("f", f)
+        if f.ndim not in (1, 2) or len(f) != len(self.mass):
+            raise ValueError(f"f must be vertex functions ({len(self.mass)},) or ({len(self.mass)}, d), got {f.shape}.")
+        return self.evecs.T @ (self.mass.reshape(-1, *([1] * (f.ndim - 1))) * f)
 
     def truncate(self, k: int) -> "Eigenbasis":
         """The first ``k`` eigenpairs of this basis."""
@@ -152,11 +156,17 @@ def _scatter(values: np.ndarray, matrix: sp.spmatrix) -> np.ndarray:
     return np.asarray(matrix.T @ flat.T).T.reshape(*values.shape[:-1], matrix.shape[1])
 
 
+def _checked(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
+    vertices = real_array("vertices", vertices, (..., "n", 3))
+    return vertices, _as_faces(faces, vertices.shape[-2])
+
+
 def cotan_edge_weights(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Cotan weights ``w_ij = (cot α + cot β) / 2`` ``(..., e)`` of the edges ``unique_edges(faces)``, in that order.
 
     ``vertices`` is ``(..., n, 3)``. The stiffness is ``W = Σ_e w_e (δ_i − δ_j)(δ_i − δ_j)ᵀ``.
     """
+    vertices, faces = _checked(vertices, faces)
     return _edge_weights(vertices, faces, unique_edges(faces))
 
 
@@ -167,7 +177,12 @@ def _edge_weights(vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray) ->
 
 
 def vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Barycentric lumped mass ``(..., n)`` for vertices ``(..., n, 3)`` sharing ``faces``."""
+    """Barycentric lumped mass ``(..., n)`` (length²) for vertices ``(..., n, 3)`` sharing ``faces`` ``(m, 3)``."""
+    return _vertex_areas(*_checked(vertices, faces))
+
+
+def _vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """:func:`vertex_areas` without the argument checks (for arrays already checked)."""
     incidence = sp.csr_matrix(
         (np.ones(faces.size), (np.repeat(np.arange(len(faces)), 3), faces.ravel())),
         shape=(len(faces), vertices.shape[-2]),

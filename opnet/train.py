@@ -40,6 +40,7 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
+from ._checks import check_int, check_number
 from ._files import atomic_write, remove_stale_tmp
 from .model import ARCHITECTURES, VARIANTS, OperatorNet, build_model, rigid_alignment_loss
 from .shape_difference import KINDS
@@ -230,12 +231,6 @@ def _val_d_R(net, inputs, vertices, batch_size=256) -> float:
     return total / len(inputs)
 
 
-def _check_positive(name, value, kind=int):
-    ok = isinstance(value, (int, np.integer)) if kind is int else isinstance(value, (int, float, np.floating))
-    if not ok or isinstance(value, bool) or not value > 0 or (kind is float and not math.isfinite(value)):
-        raise ValueError(f"{name} must be a positive {'integer' if kind is int else 'number'}, got {value!r}.")
-
-
 def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_size: int = 32, lr: float = 1e-3,
         seed: int = 0, device="auto", run_dir=None, resume: bool = True, progress: bool | None = None,
         hidden: int = 1024, subtract_identity: bool = True, variant: str = "paper",
@@ -313,8 +308,8 @@ def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_si
     if schedule not in SCHEDULES:
         raise ValueError(f"schedule must be one of {SCHEDULES}, got {schedule!r}.")
     for name, value in (("epochs", epochs), ("batch_size", batch_size), ("hidden", hidden), ("n_points", n_points)):
-        _check_positive(name, value)
-    _check_positive("lr", lr, float)
+        check_int(name, value)
+    check_number("lr", lr)
     device = resolve_device(device)
     rank, world = _distributed()
     if device.type == "cuda" and world > 1:

@@ -1,5 +1,6 @@
 """Collection storage (atomic, checksummed), splits, the evaluation subset and the user-folder loader,
 on toy shapes so that these tests need no body model."""
+import hashlib
 import json
 import multiprocessing as mp
 import os
@@ -203,3 +204,78 @@ def test_determinism():
     np.testing.assert_array_equal(a.split, b.split)
     np.testing.assert_array_equal(a.operators, b.operators)
     assert not np.array_equal(a.split, toy_collection(seed=4).split)
+
+
+def test_damaged_manifests_and_data_files_are_named(coll, tmp_path):
+    """A manifest whose data entry leaves its folder or is no file name, and a data file whose checksum was
+    updated to match damaged contents, each get an error naming the file and rebuild=True."""
+    path = opnet.data.save_collection(coll, tmp_path / "toy")
+    manifest = json.loads(path.read_text())
+    for entry in ("../elsewhere.npz", "/etc/passwd", 5, None, ["toy.npz"]):
+        path.write_text(json.dumps(dict(manifest, data=entry)))
+        with pytest.raises(CollectionError, match=r"toy\.json.*data file.*rebuild=True"):
+            opnet.data.read_collection(path)
+    data = tmp_path / manifest["data"]
+    for contents in (b"not a zip archive at all", _npz_bytes(vertices=np.zeros(3))):
+        data.write_bytes(contents)
+        fake = hashlib.sha256(contents).hexdigest()  # the checksum made to match the damage
+        path.write_text(json.dumps(dict(manifest, sha256=fake)))
+        with pytest.raises(CollectionError, match=rf"{data.name}.*cannot be read.*rebuild=True"):
+            opnet.data.read_collection(path)
+
+
+def _npz_bytes(**arrays) -> bytes:
+    import io
+
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return buf.getvalue()
+
+
+def test_user_folder_oddities(tmp_path):
+    """A subfolder named like a mesh is not a mesh; a splits.csv that is not text is named."""
+    base = toy.capsule("quick")
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    for i, angle in enumerate([0.0, 0.5]):
+        trimesh.Trimesh(toy.bend(base.vertices, angle), base.faces, process=False).export(folder / f"pose{i}.ply")
+    (folder / "archive.ply").mkdir()
+    assert len(opnet.data.load_folder(folder, k=10, progress=False)) == 2
+    (folder / "splits.csv").write_bytes(b"\xff\xfe\x00binary\x00")
+    with pytest.raises(CollectionError, match="splits.csv is not UTF-8 text"):
+        opnet.data.load_folder(folder, k=10, progress=False)
+
+
+def test_an_unusable_data_root_is_found_before_building(coll, tmp_path, monkeypatch):
+    """A data root that is a file, inside a file, or on a full disk is refused before the (minutes long) build;
+    a save that fails after the build returns the built collection with a warning instead of losing it."""
+    from opnet.data import collections, generators
+
+    built = []
+
+    def fake_generate(preset, resolution, seed, meta, progress=None):
+        built.append(preset)
+        return collections.Collection(**{f: getattr(coll, f) for f in (
+            "vertices", "faces", "operators", "split", "subcollection", "base_basis", "eval_subset", "params")},
+            meta=dict(meta))
+
+    monkeypatch.setitem(generators.GENERATORS, "humans", (fake_generate, ("1k",)))
+    a_file = tmp_path / "a_file"
+    a_file.write_text("not a folder")
+    for root in (a_file, a_file / "inside"):
+        with pytest.raises(CollectionError, match="data root.*OPNET_DATA_DIR"):
+            opnet.data.load_collection("humans", "quick", root)
+    monkeypatch.setattr(collections.shutil, "disk_usage", lambda p: collections.shutil._ntuple_diskusage(1, 1, 0))
+    with pytest.raises(CollectionError, match="free"):
+        opnet.data.load_collection("humans", "quick", tmp_path / "full")
+    assert built == []  # refused before building
+    monkeypatch.undo()
+    monkeypatch.setitem(generators.GENERATORS, "humans", (fake_generate, ("1k",)))
+
+    def no_space(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(collections, "save_collection", no_space)
+    with pytest.warns(UserWarning, match="could not be saved.*No space left"):
+        got = opnet.data.load_collection("humans", "quick", tmp_path / "ok")
+    assert built == ["quick"] and len(got) == len(coll)

@@ -91,7 +91,7 @@ def test_bad_input(base_basis, problem, small_shapes):
         reconstruct(ops, base_basis, optimizer="sgd", progress=False)
     with pytest.raises(ValueError, match="init must be 'base'"):
         reconstruct(ops, base_basis, init="zeros", progress=False)
-    with pytest.raises(ValueError, match="zero-area faces"):
+    with pytest.raises(ValueError, match="zero-area"):
         reconstruct(ops, base_basis, init=np.zeros_like(X), progress=False)
     with pytest.raises(ValueError, match="smoothness"):
         reconstruct(ops, base_basis, smoothness=-1, progress=False)

@@ -29,6 +29,8 @@ import json
 import operator
 import os
 import re
+import shutil
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -120,8 +122,12 @@ def _stem(path) -> Path:
 
 
 def _data_files(stem: Path) -> list[Path]:
-    pattern = re.compile(re.escape(stem.name) + r"\.[0-9a-f]{12}\.npz")
-    return [p for p in stem.parent.glob(stem.name + ".*.npz") if pattern.fullmatch(p.name)]
+    return [p for p in stem.parent.glob(stem.name + ".*.npz") if _data_name(stem).fullmatch(p.name)]
+
+
+def _data_name(stem: Path) -> re.Pattern:
+    """The name of a data file of the collection stored under ``stem``: ``<stem>.<12 hex digits>.npz``."""
+    return re.compile(re.escape(stem.name) + r"\.[0-9a-f]{12}\.npz")
 
 
 def _tmp_files(stem: Path) -> list[Path]:
@@ -195,7 +201,11 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
         for key, value in (expected_meta or {}).items():
             if manifest.get(key) != value:
                 raise CollectionError(f"{stem} was built with {key}={manifest.get(key)!r}, expected {value!r}; {fix}.")
-        data_path = stem.with_name(manifest["data"])
+        entry = manifest["data"]
+        if not isinstance(entry, str) or not _data_name(stem).fullmatch(entry):
+            raise CollectionError(f"the manifest {manifest_path} names {entry!r} as its data file, not a file "
+                                  f"'{stem.name}.<12 hex digits>.npz' beside it; {fix}.")
+        data_path = stem.with_name(entry)
         if not data_path.is_file():
             if attempt == 0:
                 continue
@@ -203,10 +213,17 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
         if _sha256(data_path) != manifest.get("sha256"):
             raise CollectionError(f"{data_path} does not match the checksum in its manifest (corrupt or modified); {fix}.")
         break
-    with np.load(data_path) as z:
-        data = {k: z[k] for k in z.files}
-    base = Mesh(data.pop("base_vertices"), data["faces"])
-    basis = Eigenbasis(base, data.pop("base_evals"), data.pop("base_evecs"), data.pop("base_mass"))
+    try:  # the checksum matches, yet the contents may have been damaged before it was (re)computed
+        with np.load(data_path) as z:
+            data = {k: z[k] for k in z.files}
+        shapes = {k: list(v.shape) for k, v in data.items()}
+        if shapes != manifest.get("shapes"):
+            raise ValueError(f"its arrays {shapes} are not those of the manifest {manifest.get('shapes')}")
+        base = Mesh(data.pop("base_vertices"), data["faces"])
+        basis = Eigenbasis(base, data.pop("base_evals"), data.pop("base_evecs"), data.pop("base_mass"))
+    except Exception as exc:
+        raise CollectionError(f"{data_path} matches its checksum but cannot be read as a collection "
+                              f"({type(exc).__name__}: {str(exc)[:200]}); {fix}.") from None
     params = {k[len("param_"):]: data.pop(k) for k in list(data) if k.startswith("param_")}
     meta = {k: v for k, v in manifest.items() if k not in ("sha256", "shapes", "format_version", "data")}
     return Collection(data["vertices"], data["faces"], data["operators"], data["split"],
@@ -249,7 +266,7 @@ def load_collection(name: str, preset: str = "quick", root=None, *, resolution: 
     the ``"1k"`` (default), ``"2k"`` or ``"5k"``-vertex version of the same shapes. A cached file is reused when its parameters match;
     a corrupt or mismatched one raises :class:`CollectionError` naming the fix (``rebuild=True``).
     """
-    from .generators import GENERATORS, GENERATOR_VERSION, PRESETS
+    from .generators import GENERATORS, GENERATOR_VERSION, PRESETS, shape_count
 
     if name not in GENERATORS:
         raise ValueError(f"unknown collection {name!r}; use one of {sorted(GENERATORS)} (or load_folder for your own meshes).")
@@ -268,9 +285,43 @@ def load_collection(name: str, preset: str = "quick", root=None, *, resolution: 
     stem = root / _stem_name(meta)
     if not rebuild and stem.with_name(stem.name + ".json").is_file():
         return read_collection(stem, expected_meta=meta)
+    check_root(root, shape_count(name, preset) * _BYTES_PER_SHAPE)
     coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress)
-    save_collection(coll, stem)
+    save_or_warn(coll, stem)
     return coll
+
+
+# Stored bytes per generated shape, at most: a 5k-vertex body (60 kB) and its three 60 × 60 operators (43 kB).
+_BYTES_PER_SHAPE = 120_000
+
+
+def check_root(root: Path, needed: int) -> None:
+    """Refuse a data root that cannot hold ``needed`` bytes of new files, before anything is built: a file, a
+    folder that cannot be created or written, or a disk with less free space (``CollectionError``)."""
+    fix = "pass root= a writable folder or set OPNET_DATA_DIR"
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        probe = tmp_name(root / "write-check")
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise CollectionError(f"the data root {root} is not a writable folder ({exc.strerror or exc}); {fix}.") from None
+    free = shutil.disk_usage(root).free
+    if free < needed:
+        raise CollectionError(f"the data root {root} has {free / 1e6:.0f} MB free, and this collection needs about "
+                              f"{needed / 1e6:.0f} MB; free some space, or {fix}.")
+
+
+def save_or_warn(coll: Collection, stem: Path) -> bool:
+    """Save a freshly built collection; when that fails (e.g. the disk filled up meanwhile), warn instead of
+    raising, so that the minutes of building are not lost: the caller returns it uncached. Whether it was saved."""
+    try:
+        save_collection(coll, stem)
+    except OSError as exc:
+        warnings.warn(f"the collection could not be saved to {stem} ({exc}); it is returned but not cached, so it "
+                      "will be built again next time.", stacklevel=3)
+        return False
+    return True
 
 
 def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool | None = None) -> Collection:
@@ -285,7 +336,10 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
     from ..mesh import load_mesh
 
     folder = Path(folder).resolve()
-    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in (".ply", ".obj", ".off") and not p.name.startswith("."))
+    if not folder.is_dir():
+        raise CollectionError(f"{folder} is not a folder; pass the folder that holds your meshes.")
+    files = sorted(p for p in folder.iterdir()
+                   if p.suffix.lower() in (".ply", ".obj", ".off") and not p.name.startswith(".") and p.is_file())
     if not files:
         raise CollectionError(f"no .ply/.obj/.off meshes in {folder}.")
     meshes = []
@@ -304,7 +358,12 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
     table = folder / "splits.csv"
     if table.is_file():
         seen = set()
-        for line_no, line in enumerate(table.read_text().splitlines(), 1):
+        try:
+            lines = table.read_text(encoding="utf-8").splitlines()
+        except UnicodeDecodeError:
+            raise CollectionError(f"{table.name} is not UTF-8 text; write it as lines 'filename,split,subcollection' "
+                                  f"(in {folder}).") from None
+        for line_no, line in enumerate(lines, 1):
             fields = [f.strip() for f in line.split(",")]
             if not line.strip() or (line_no == 1 and fields[0] == "filename"):
                 continue

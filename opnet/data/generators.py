@@ -15,7 +15,7 @@ from . import bodies
 from .collections import assemble
 from .splits import make_splits
 
-__all__ = ["PRESETS", "GENERATORS", "GENERATOR_VERSION", "generate_shapes", "interpolate_controls", "resolution_map"]
+__all__ = ["PRESETS", "GENERATORS", "MOTIONS", "shape_count", "GENERATOR_VERSION", "generate_shapes", "interpolate_controls", "resolution_map"]
 
 # Bump when a generator changes what it produces: cached collections then no longer match.
 GENERATOR_VERSION = "2"
@@ -86,22 +86,32 @@ def _evaluator(name: str, resolution: str):
     return {"heads": bodies.head_vertices, "hands": bodies.hand_vertices}[name]
 
 
+#: name -> the motion sequences every subject performs (body actions, facial expressions, hand gestures)
+MOTIONS = {"humans": bodies.ACTIONS, "heads": tuple(bodies.HEAD_EXPRESSIONS), "hands": tuple(bodies.HAND_GESTURES)}
+
+
+def shape_count(name: str, preset: str) -> int:
+    """How many shapes the collection ``name`` holds at ``preset`` (each subject: every motion, plus random poses)."""
+    p = PRESETS[preset]
+    return p.subjects * (len(MOTIONS[name]) * p.frames + p.random)
+
+
 def _humans(preset, resolution, seed, meta, progress=None):
     one_k = None if resolution == "1k" else _evaluator("humans", "1k")
-    return _build(preset, seed, meta, progress, motions=bodies.ACTIONS, sequence=bodies.action_poses,
+    return _build(preset, seed, meta, progress, motions=MOTIONS["humans"], sequence=bodies.action_poses,
                   random=bodies.random_poses, evaluate=_evaluator("humans", resolution),
                   rest=bodies.rest_pose(), faces=bodies.human_faces(resolution), reference=one_k)
 
 
 def _heads(preset, resolution, seed, meta, progress=None):
-    return _build(preset, seed, meta, progress, motions=tuple(bodies.HEAD_EXPRESSIONS),
+    return _build(preset, seed, meta, progress, motions=MOTIONS["heads"],
                   sequence=bodies.expression_sequence, random=bodies.random_expressions,
                   evaluate=_evaluator("heads", resolution), rest=np.zeros(len(bodies.FACIAL_ACTIONS)),
                   faces=bodies.head_faces())
 
 
 def _hands(preset, resolution, seed, meta, progress=None):
-    return _build(preset, seed, meta, progress, motions=tuple(bodies.HAND_GESTURES),
+    return _build(preset, seed, meta, progress, motions=MOTIONS["hands"],
                   sequence=bodies.gesture_sequence, random=bodies.random_hand_poses,
                   evaluate=_evaluator("hands", resolution), rest=bodies.hand_poses({}, 1)[0], faces=bodies.hand_faces())
 

@@ -29,8 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .._checks import check_int, is_integer
 from .._files import atomic_write, remove_stale_tmp
-from .collections import Collection, CollectionError, _stem_name, default_root, read_collection, save_collection
+from .collections import (_BYTES_PER_SHAPE, Collection, CollectionError, _stem_name, check_root, default_root,
+                          read_collection, save_or_warn)
 
 __all__ = ["mapped_collection", "MAPS", "MAP_K"]
 
@@ -87,11 +89,10 @@ def mapped_collection(collection: Collection, resolution: str = "2k", maps: str 
         raise ValueError(f"resolution must be one of {list(bodies.RESOLUTIONS)}, got {resolution!r}.")
     if maps not in MAPS:
         raise ValueError(f"maps must be one of {MAPS}, got {maps!r}.")
-    for name, value, lowest in (("chunk", chunk, 1), ("k", k, 1), ("n_jobs", n_jobs, None)):
-        integer = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-        if not integer or value == 0 or (lowest is not None and value < lowest):
-            kind = "a non-zero integer (-1: all cores)" if lowest is None else "a positive integer"
-            raise ValueError(f"{name} must be {kind}, got {value!r}.")
+    check_int("chunk", chunk)
+    check_int("k", k)
+    if not is_integer(n_jobs) or n_jobs == 0:
+        raise ValueError(f"n_jobs must be a non-zero integer (-1: all cores), got {n_jobs!r}.")
     source = collection if indices is None else collection.subset(indices)
     if len(source) == 0:
         raise ValueError("indices is empty: give at least one shape index.")
@@ -102,7 +103,7 @@ def mapped_collection(collection: Collection, resolution: str = "2k", maps: str 
                 source=f"{m['name']}-{m['preset']}-{m['resolution']}")
     if not rebuild and stem.with_name(stem.name + ".json").is_file():
         return read_collection(stem, expected_meta=meta)
-    stem.parent.mkdir(parents=True, exist_ok=True)
+    check_root(stem.parent, len(source) * _BYTES_PER_SHAPE)
     remove_stale_tmp(stem.parent.glob(f".{stem.name}.part-*.tmp-*"))  # parts of killed builds
     if rebuild:
         _remove_parts(stem)
@@ -113,8 +114,8 @@ def mapped_collection(collection: Collection, resolution: str = "2k", maps: str 
                               "pass rebuild=True.")
     params = dict(source.params, map_error=error, map_coverage=coverage, map_orientation=orientation)
     out = replace(source, operators=operators, params=params, meta=meta)
-    save_collection(out, stem)
-    _remove_parts(stem)
+    if save_or_warn(out, stem):  # else the parts stay, and the next call assembles them without recomputing
+        _remove_parts(stem)
     return out
 
 

@@ -1,0 +1,264 @@
+"""Bad input across the public API gets an error of opnet's own, at the call the user made, naming the argument,
+what it got and what to do (issue 8's classes: near-degenerate geometry, shape mismatches, types, user-defined
+inner products, non-finite values, empty batches). Storage is tested in test_collections, the documentation's
+code blocks in test_docs."""
+import warnings
+
+import numpy as np
+import pytest
+import torch
+import trimesh
+
+import opnet
+from opnet._checks import check_int, check_number, real_array
+from opnet.inner_products import checked_gram
+
+
+def _sliver(base, scale):
+    """The base with one vertex moved towards the midpoint of the opposite edge of one of its faces, leaving
+    that face with quality ≈ ``scale`` (and its neighbour about as thin)."""
+    v = base.vertices.copy()
+    i, j, m = base.faces[100]
+    mid = 0.5 * (v[i] + v[j])
+    v[m] = mid + scale * (v[m] - mid)
+    return v
+
+
+# -- near-degenerate geometry ---------------------------------------------------------------------------------
+
+def test_near_degenerate_faces_warn_and_collapsed_ones_are_refused_with_their_index(base, base_basis):
+    with pytest.warns(opnet.MeshWarning, match=r"below 0.0001 \(worst: face 100"):
+        opnet.Mesh(_sliver(base, 1e-5), base.faces)
+    with pytest.raises(opnet.MeshError, match=r"below 1e-08 \(worst: face 100"):
+        opnet.Mesh(_sliver(base, 1e-10), base.faces)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a good mesh, and mild thinning, say nothing
+        opnet.Mesh(base.vertices, base.faces)
+        opnet.Mesh(_sliver(base, 0.1), base.faces)
+    with pytest.warns(opnet.MeshWarning, match="shape 1"):  # the batched path names the shape
+        opnet.shape_differences(base_basis, np.stack([base.vertices, _sliver(base, 1e-5)]))
+    with pytest.raises(ValueError, match="shape 1"):
+        opnet.shape_differences(base_basis, np.stack([base.vertices, _sliver(base, 1e-10)]))
+
+
+def test_the_warning_threshold_is_where_one_face_outweighs_the_shape(base, base_basis):
+    """The measurement behind the thresholds: thinning one face to quality q moves the conformal operator by
+    ~0.015 / q (relative), so a mildly thin face is harmless and a face below 1e-4 dominates the whole shape."""
+    exact = opnet.shape_difference(base_basis, base, "conformal")
+
+    def change(scale):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", opnet.MeshWarning)
+            D = opnet.shape_difference(base_basis, _sliver(base, scale), "conformal")
+        return np.linalg.norm(D - exact) / np.linalg.norm(exact)
+
+    assert change(0.1) < 0.2 and change(1e-4) > 5 and change(1e-6) / change(1e-4) == pytest.approx(100, rel=0.1)
+
+
+@pytest.mark.parametrize("scale", [1e-30, 1e30])
+def test_the_quality_tolerance_is_scale_free(base, scale):
+    """A good mesh stays good and a sliver stays a sliver at any representable scale (they used to be reported
+    as zero-area faces when far from unit size)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert opnet.Mesh(base.vertices * scale, base.faces).n_vertices == base.n_vertices
+    with pytest.warns(opnet.MeshWarning, match="face 100"):
+        opnet.Mesh(_sliver(base, 1e-5) * scale, base.faces)
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e200])
+def test_extreme_scales_are_named_and_normalize_area_accepts_them(base, scale):
+    with pytest.raises(opnet.MeshError, match="spans .* rescale the coordinates.*normalize_area=True"):
+        opnet.Mesh(base.vertices * scale, base.faces)
+    unit = opnet.Mesh(base.vertices, base.faces, normalize_area=True)
+    scaled = opnet.Mesh(base.vertices * scale, base.faces, normalize_area=True)
+    np.testing.assert_allclose(scaled.vertices, unit.vertices, atol=1e-12)
+    assert scaled.area == pytest.approx(1.0)
+
+
+# -- shape mismatches get the right hint ----------------------------------------------------------------------
+
+def test_a_target_with_another_vertex_count_is_named_as_such(base_basis):
+    n = base_basis.mesh.n_vertices
+    for rows in (n - 5, n + 3):
+        target = np.resize(base_basis.mesh.vertices, (rows, 3))
+        with pytest.raises(opnet.MeshError, match=f"coordinates are for {rows} vertices, this mesh has {n}"):
+            opnet.shape_difference(base_basis, target)
+
+
+def test_a_triangle_soup_gets_advice_that_works(base):
+    soup_v = base.vertices[base.faces].reshape(-1, 3)
+    soup_f = np.arange(len(soup_v)).reshape(-1, 3)
+    for keep in (False, True):
+        with pytest.raises(opnet.MeshError, match="triangle soup.*trimesh.Trimesh") as exc:
+            opnet.Mesh(soup_v, soup_f, keep_largest_component=keep)
+        assert "keep_largest_component=True" not in str(exc.value)  # the old advice, which then failed
+    merged = trimesh.Trimesh(soup_v, soup_f)  # the advice, followed
+    assert opnet.Mesh(merged.vertices, merged.faces).n_vertices == base.n_vertices
+
+
+# -- types ----------------------------------------------------------------------------------------------------
+
+def _numpy_entry_points(base, basis):
+    """(name of the argument, a call taking the argument) for the numpy entry points."""
+    V, k = base.vertices, basis.k
+    D = np.eye(k)
+    return [
+        ("vertices", lambda x: opnet.shape_differences(basis, x), V[None]),
+        ("X", lambda x: opnet.gram_matrix(basis, x), V),
+        ("G", lambda x: opnet.recover_embedding(x, basis), D),
+        ("D", lambda x: opnet.distortion_function(x, basis), D),
+        ("D0", lambda x: opnet.interpolate(x, D, 0.5), D),
+        ("DA", lambda x: opnet.analogy(x, D, D), D),
+        ("X_gt", lambda x: opnet.d_R(x, V), V),
+        ("X_gt", lambda x: opnet.d_E(x, V, base.faces), V),
+        ("K", lambda x: opnet.pinv_psd(x), D),
+        ("f", lambda x: basis.project(x), V),
+        ("vertices", lambda x: opnet.vertex_areas(x, base.faces), V),
+        ("operators", lambda x: opnet.reconstruct(x, basis, channels=("area",), steps=1, progress=False), D[None, None]),
+        ("matrix", lambda x: opnet.FunctionalMap(x, basis, basis).matrix, D),
+    ]
+
+
+def test_complex_input_is_refused_not_truncated(base, base_basis):
+    for name, call, good in _numpy_entry_points(base, base_basis):
+        with pytest.raises(TypeError, match=f"{name} holds complex numbers"):
+            call(good + 0j)  # the imaginary part is zero: still refused, never silently dropped
+
+
+def test_strings_are_refused_and_lists_and_tensors_converted(base, base_basis):
+    for name, call, good in _numpy_entry_points(base, base_basis):
+        with pytest.raises(TypeError, match=f"{name} must be a real array"):
+            call("shape.ply")
+        expected = call(good)
+        for converted in (good.tolist(), torch.tensor(good)):
+            got = call(converted)
+            np.testing.assert_allclose(got[0] if isinstance(got, tuple) else got,
+                                       expected[0] if isinstance(expected, tuple) else expected)
+
+
+def test_the_network_converts_what_it_can_without_loss_and_names_the_rest():
+    net = opnet.OperatorNet(20, k=6, hidden=8).eval()
+    ops = np.random.default_rng(0).normal(size=(2, 3, 6, 6)).astype(np.float32)
+    expected = net(torch.from_numpy(ops))
+    for same in (ops, ops.tolist()):
+        torch.testing.assert_close(net(same), expected)
+    half = torch.from_numpy(ops).half()  # widened without loss
+    torch.testing.assert_close(net(half), net(half.float()))
+    for lossy in (torch.from_numpy(ops).double(), ops.astype(np.float64)):
+        with pytest.raises(TypeError, match="operators is float64 but this network computes in float32.*x.float()"):
+            net(lossy)
+    with pytest.raises(TypeError, match="operators must hold real numbers"):
+        net(torch.from_numpy(ops) * (1 + 0j))
+    with pytest.raises(TypeError, match=r"operators must be a tensor \(B, 3, 6, 6\)"):
+        net("operators.npy")
+    with pytest.raises(ValueError, match=r"operators must have shape \(B, 3, 6, 6\)"):
+        net(ops[:, :2])
+    np.testing.assert_allclose(opnet.evaluate.predict(net, ops.astype(np.float64)), expected.double().detach().numpy(),
+                               rtol=1e-6)  # predict is the converting entry point
+    pointnet = opnet.model.PointNetAutoencoder(20, n_points=10, latent=8, hidden=8)
+    with pytest.raises(TypeError, match="vertices is float64"):
+        pointnet(torch.zeros(1, 20, 3, dtype=torch.float64))
+
+
+def test_the_loss_takes_numpy_targets_and_names_bad_arguments():
+    pred = torch.randn(2, 10, 3, requires_grad=True)
+    target = np.random.default_rng(0).normal(size=(2, 10, 3))
+    torch.testing.assert_close(opnet.rigid_alignment_loss(pred, target),
+                               opnet.rigid_alignment_loss(pred, torch.from_numpy(target)))
+    with pytest.raises(TypeError, match="pred must be a floating-point tensor"):
+        opnet.rigid_alignment_loss(pred.detach().numpy(), target)
+    with pytest.raises(TypeError, match="target holds complex numbers"):
+        opnet.rigid_alignment_loss(pred, target + 0j)
+
+
+# -- user-defined inner products ------------------------------------------------------------------------------
+
+class _WrongShape(opnet.InnerProduct):
+    name = "wrong shape"
+
+    def project(self, vertices, faces, evecs):
+        return np.eye(3)
+
+
+class _NotSymmetric(opnet.InnerProduct):
+    def project(self, vertices, faces, evecs):
+        return np.triu(np.ones((evecs.shape[1],) * 2))
+
+
+class _NotFinite(opnet.InnerProduct):
+    def project(self, vertices, faces, evecs):
+        return np.full((evecs.shape[1],) * 2, np.nan)
+
+
+class _Negative(opnet.InnerProduct):
+    def project(self, vertices, faces, evecs):
+        return -evecs.T @ evecs
+
+
+@pytest.mark.parametrize("ip, message", [
+    (_WrongShape(), r"_WrongShape.project \(inner product 'wrong shape'\) returned float64 ndarray of shape \(3, 3\)"),
+    (_NotSymmetric(), "_NotSymmetric.project .* non-symmetric"),
+    (_NotFinite(), "_NotFinite.project .* NaN or infinite"),
+    (_Negative(), "_Negative.project .* on the base: .* not positive semi-definite"),
+])
+def test_a_faulty_inner_product_is_named(base_basis, targets, ip, message):
+    with pytest.raises(ValueError, match=message):
+        opnet.shape_difference(base_basis, targets[0], ip)
+    with pytest.raises(ValueError, match=message):
+        opnet.shape_differences(base_basis, targets[0].vertices[None], [ip])
+
+
+def test_the_built_in_inner_products_pass_the_checks(base_basis, targets):
+    V = np.stack([t.vertices for t in targets])
+    for ip in opnet.INNER_PRODUCTS.values():
+        assert checked_gram(ip, "project_batch", V, base_basis.mesh.faces, base_basis.evecs).shape == (3, 30, 30)
+
+
+# -- non-finite values and empty batches ----------------------------------------------------------------------
+
+def test_non_finite_values_are_named_by_argument(base, base_basis):
+    for name, call, good in _numpy_entry_points(base, base_basis):
+        bad = good.copy()
+        bad.flat[1] = np.nan
+        with pytest.raises(ValueError, match=f"{name} contains 1 NaN or infinite values"):
+            call(bad)
+    net = opnet.OperatorNet(base.n_vertices, k=base_basis.k, hidden=8)
+    with pytest.raises(ValueError, match="operators contains"):
+        opnet.evaluate.predict(net, np.full((1, 3, base_basis.k, base_basis.k), np.inf))
+    pred = torch.zeros(1, 4, 3)
+    with pytest.raises(ValueError, match="target contains NaN"):
+        opnet.rigid_alignment_loss(pred, torch.full((1, 4, 3), float("nan")))
+    with pytest.raises(ValueError, match="t is nan"):
+        opnet.interpolate(np.eye(3), np.eye(3), float("nan"))
+
+
+def test_empty_batches_are_refused():
+    with pytest.raises(ValueError, match="batch is empty"):
+        opnet.rigid_alignment_loss(torch.zeros(0, 4, 3), torch.zeros(0, 4, 3))
+    with pytest.raises(ValueError, match="n >= 1 points"):
+        opnet.kabsch(np.zeros((0, 3)), np.zeros((0, 3)))  # the mean of no points is NaN
+
+
+# -- the shared argument checks ---------------------------------------------------------------------------------
+
+def test_the_shared_checks():
+    assert check_int("n", np.int64(3)) == 3 and check_int("n", None, none_ok=True) is None
+    for bad in (0, -1, 2.5, True, "3", None):
+        with pytest.raises(ValueError, match="n must be a positive integer"):
+            check_int("n", bad)
+    with pytest.raises(ValueError, match="steps must be an integer >= 2"):
+        check_int("steps", 1, minimum=2)
+    assert check_number("lr", 1e-3) == 1e-3
+    for bad in (0, -1.0, float("inf"), float("nan"), "1e-3", True):
+        with pytest.raises(ValueError, match="lr must be a positive number"):
+            check_number("lr", bad)
+    arr = np.zeros((2, 3), dtype=np.float32)
+    assert real_array("x", arr, dtype=np.float32) is arr  # no copy when nothing changes
+    assert real_array("x", np.zeros((4, 5, 3)), (..., 3)).shape == (4, 5, 3)
+    with pytest.raises(ValueError, match=r"x must have shape \(B, 7, 3\), got \(2, 3\)"):
+        real_array("x", arr, ("B", 7, 3))
+    with pytest.raises(ValueError, match="could not be read as an array"):
+        real_array("x", [[1, 2], [3]])
+    with pytest.raises(TypeError, match="must be a real array"):
+        real_array("x", np.array([True, False]))

@@ -1,0 +1,80 @@
+"""The code blocks of README.md and docs/*.md run as written.
+
+Each document's Python blocks run top to bottom in one namespace (as a reader pasting them into one session
+would), in a temporary folder that holds the files the README reads as "your own data": ``body.ply`` (a closed
+body mesh of another triangulation) and ``my_registrations/`` (meshes in correspondence). A block preceded by
+``<!-- docs-test: skip (reason) -->`` is not run. Shell blocks are not run (they start the long jobs); every
+``python -m opnet ...`` line in them is parsed by the command-line parser, so a renamed flag fails here.
+"""
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+import trimesh
+
+from opnet.__main__ import _parser
+from opnet.data import bodies
+from opnet.data.generators import generate_shapes
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCUMENTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+FENCE = re.compile(r"(?P<mark><!-- docs-test: skip[^>]*-->\n)?```(?P<lang>\w+)\n(?P<code>.*?)\n```", re.S)
+
+
+def blocks(path: Path, lang: str) -> list[str]:
+    """The ``lang`` blocks of ``path`` that are to be run, in order."""
+    return [m["code"] for m in FENCE.finditer(path.read_text()) if m["lang"] == lang and not m["mark"]]
+
+
+def run_blocks(path: Path) -> None:
+    """Run the Python blocks of ``path`` in one namespace; a failing block fails the test, naming it."""
+    namespace = {"__name__": "__docs__"}
+    for n, block in enumerate(blocks(path, "python")):
+        try:
+            exec(compile(block, f"{path.name}[python block {n}]", "exec"), namespace)
+        except Exception as exc:
+            pytest.fail(f"{path.name}, Python block {n} fails: {type(exc).__name__}: {exc}\n{block}")
+
+
+def test_blocks_are_found_and_broken_ones_fail(tmp_path):
+    """The extraction and the runner themselves: the README holds Python and shell blocks, the skip mark drops a
+    block, and a block using an undefined name (as the old README's sixth line did) fails."""
+    assert len(blocks(ROOT / "README.md", "python")) >= 5 and blocks(ROOT / "README.md", "bash")
+    doc = tmp_path / "doc.md"
+    doc.write_text("<!-- docs-test: skip (why) -->\n```python\nboom()\n```\n\n```python\nx = 1\n```\n")
+    assert blocks(doc, "python") == ["x = 1"]
+    run_blocks(doc)
+    doc.write_text("```python\nimport opnet\nDs = opnet.shape_differences(basis, many_vertices)\n```\n")
+    with pytest.raises(pytest.fail.Exception, match="NameError"):
+        run_blocks(doc)
+
+
+@pytest.fixture
+def reader_folder(tmp_path, monkeypatch, humans, root):
+    """A working folder with the README's input files; collections come from the session's data root."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("OPNET_DATA_DIR", str(root))
+    i = int(humans.indices("test")[0])
+    body = generate_shapes(humans, humans.params["phenotypes"][[i]], humans.params["controls"][[i]], resolution="2k")
+    trimesh.Trimesh(body[0], bodies.human_faces("2k"), process=False).export(tmp_path / "body.ply")
+    folder = tmp_path / "my_registrations"
+    folder.mkdir()
+    for j in humans.indices("train")[:4]:
+        trimesh.Trimesh(humans.vertices[j], humans.faces, process=False).export(folder / f"shape{j:04d}.ply")
+    return tmp_path
+
+
+@pytest.mark.parametrize("path", DOCUMENTS, ids=lambda p: p.name)
+def test_python_blocks_run(path, reader_folder):
+    run_blocks(path)
+
+
+@pytest.mark.parametrize("path", DOCUMENTS, ids=lambda p: p.name)
+def test_command_lines_parse(path):
+    parser = _parser()
+    lines = "\n".join(blocks(path, "bash")).replace("\\\n", " ").splitlines()
+    for line in lines:
+        words = shlex.split(line, comments=True)
+        if words[:3] == ["python", "-m", "opnet"] and "..." not in words:
+            parser.parse_args(words[3:])  # SystemExit on an unknown flag or value
