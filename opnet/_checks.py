@@ -6,10 +6,24 @@ user made rather than deep inside numpy, scipy or torch. The checks are O(size) 
 from __future__ import annotations
 
 import math
+import sys
+import warnings
+from pathlib import Path
 
 import numpy as np
 
-__all__ = ["is_integer", "check_int", "check_number", "real_array", "describe"]
+__all__ = ["is_integer", "check_int", "check_number", "real_array", "describe", "warn_user"]
+
+_PACKAGE = str(Path(__file__).resolve().parent)
+
+
+def warn_user(message: str, category=UserWarning) -> None:
+    """``warnings.warn`` attributed to the first caller outside opnet: the line of the user's code that made
+    the call, however deep inside opnet the problem was found."""
+    level, frame = 2, sys._getframe(1)  # stacklevel 1 is this function, 2 its caller
+    while frame is not None and str(Path(frame.f_code.co_filename).resolve()).startswith(_PACKAGE):
+        level, frame = level + 1, frame.f_back
+    warnings.warn(message, category, stacklevel=level)
 
 
 def is_integer(value) -> bool:
@@ -43,7 +57,7 @@ def describe(value) -> str:
 
 
 def _shape_text(shape) -> str:
-    names = [str(s) for s in shape]
+    names = ["..." if s is Ellipsis else str(s) for s in shape]
     return "(" + ", ".join(names) + ("," if len(names) == 1 else "") + ")"
 
 
@@ -57,7 +71,8 @@ def real_array(name: str, value, shape=None, *, finite: bool = True, dtype=np.fl
     the basis"). An array of ``dtype`` already is not copied.
     """
     if hasattr(value, "detach") and hasattr(value, "cpu"):  # a torch tensor
-        value = value.detach().cpu().numpy()
+        value = value.detach().cpu()
+        value = (value.float() if str(value.dtype) == "torch.bfloat16" else value).numpy()  # numpy has no bfloat16
     expected = (f" of shape {_shape_text(shape)}" if shape is not None else "") + (f" {hint}" if hint else "")
     if isinstance(value, (str, bytes)):
         raise TypeError(f"{name} must be a real array{expected}, got the string {value[:40]!r}; load the data first.")
@@ -72,14 +87,18 @@ def real_array(name: str, value, shape=None, *, finite: bool = True, dtype=np.fl
         raise TypeError(f"{name} must be a real array{expected}, got {arr.dtype} values ({describe(value)}).")
     if shape is not None and not _fits(arr.shape, shape):
         raise ValueError(f"{name} must have shape {_shape_text(shape)}{f' {hint}' if hint else ''}, got {arr.shape}.")
-    arr = arr.astype(dtype, copy=False)
     if finite and not np.isfinite(arr).all():
         if arr.ndim == 0:
             raise ValueError(f"{name} is {arr.item()}; pass a finite number.")
         bad = np.argwhere(~np.isfinite(arr))
         raise ValueError(f"{name} contains {len(bad)} NaN or infinite values (first at index {tuple(bad[0].tolist())}); "
                          "remove or repair them.")
-    return arr
+    with np.errstate(over="ignore"):
+        out = arr.astype(dtype, copy=False)
+    if finite and out is not arr and out.dtype.kind == "f" and not np.isfinite(out).all():
+        raise ValueError(f"{name} holds values beyond the range of {np.dtype(dtype)} (largest magnitude "
+                         f"{np.abs(arr).max():.3g}); rescale them.")
+    return out
 
 
 def _fits(actual: tuple, shape: tuple) -> bool:

@@ -80,8 +80,8 @@ def interpolate(D0, D1, t, scheme: str = "multiplicative") -> np.ndarray:
     if D0.shape != D1.shape:
         raise ValueError(f"D0 and D1 must have the same shape, got {D0.shape} and {D1.shape}.")
     ts = np.atleast_1d(real_array("t", t))
-    if ts.ndim != 1:
-        raise ValueError(f"t must be a scalar or a 1-d array, got shape {np.shape(t)}.")
+    if ts.ndim != 1 or len(ts) == 0:
+        raise ValueError(f"t must be a number or a non-empty 1-d array, got shape {np.shape(t)}.")
     if scheme == "linear":
         out = (1 - ts)[:, None, None] * D0 + ts[:, None, None] * D1
     elif scheme == "multiplicative":

@@ -98,9 +98,9 @@ class ShapeAlgebra:
 
     def interpolate(self, start, end, t=np.linspace(0, 1, 11)) -> np.ndarray:
         """Shapes ``(len(t), n, 3)`` from ``start`` (``t = 0``) to ``end`` (``t = 1``); one shape each (index or ``(n, 3)``)."""
-        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
-        if t.ndim != 1 or len(t) == 0 or not np.isfinite(t).all():
-            raise ValueError(f"t must be a non-empty 1-d array of finite values, got {t!r}.")
+        t = np.atleast_1d(real_array("t", t))
+        if t.ndim != 1 or len(t) == 0:
+            raise ValueError(f"t must be a number or a non-empty 1-d array, got shape {np.shape(t)}.")
         S = np.concatenate([self.shapes(start), self.shapes(end)])
         if len(S) != 2:
             raise ValueError(f"interpolate takes one start shape and one end shape, got {len(S)} shapes.")

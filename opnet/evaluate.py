@@ -29,7 +29,7 @@ from typing import Callable
 import numpy as np
 
 from ._checks import check_int, real_array
-from .inner_products import get_inner_product
+from .inner_products import get_inner_products
 from .mesh import edge_face_counts
 from .metrics import d_E, d_R, d_V, rigid_align
 from .shape_difference import KINDS
@@ -86,10 +86,14 @@ def predict(net, operators, *, batch_size: int = 256) -> np.ndarray:
 
     ``operators``: ``(N, C, k, k)`` (the network's channels, in its order) for OperatorNet, coordinates
     ``(N, m, 3)`` for the PointNet autoencoder."""
+    check_int("batch_size", batch_size)
+    return _predict(net, real_array("operators", operators, dtype=np.float32), batch_size)
+
+
+def _predict(net, operators: np.ndarray, batch_size: int = 256) -> np.ndarray:
+    """:func:`predict` of inputs already checked (a finite float32 array)."""
     import torch
 
-    operators = real_array("operators", operators, dtype=np.float32)
-    check_int("batch_size", batch_size)
     device = next(net.parameters()).device
     net.eval()
     out = []
@@ -110,10 +114,8 @@ def decode(net, operators, kinds=KINDS) -> np.ndarray:
     """
     if not hasattr(net, "channels") or not hasattr(net, "k"):
         raise TypeError(f"net must be an OperatorNet (opnet.train.load_model(run_dir)), got {type(net).__name__}.")
-    ops = real_array("operators", operators)
-    if isinstance(kinds, str):
-        raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
-    kinds = tuple(get_inner_product(k).name for k in kinds)
+    ops = real_array("operators", operators, dtype=np.float32)
+    kinds = tuple(ip.name for ip in get_inner_products(kinds))
     single = ops.ndim == 3
     batch = ops[None] if single else ops
     if batch.ndim != 4 or batch.shape[1:] != (len(kinds), net.k, net.k):
@@ -123,7 +125,7 @@ def decode(net, operators, kinds=KINDS) -> np.ndarray:
     if missing:
         raise ValueError(f"the network reads {missing}, which the operators (channels {kinds}) do not hold; "
                          "encode them with kinds=net.channels or all of opnet.KINDS.")
-    out = predict(net, batch[:, [kinds.index(c) for c in net.channels]])
+    out = _predict(net, batch[:, [kinds.index(c) for c in net.channels]].astype(np.float32))
     return out[0] if single else out
 
 
@@ -222,7 +224,7 @@ def shape_errors(gt, recon, faces, *, batch_size: int = 256) -> dict:
 
     ``d_V`` is NaN for open meshes, whose volume is undefined.
     """
-    gt, recon = np.asarray(gt, dtype=np.float64), np.asarray(recon, dtype=np.float64)
+    gt, recon = real_array("gt", gt), real_array("recon", recon)
     closed = bool(np.all(edge_face_counts(np.asarray(faces))[1] == 2))
     out = {"d_R": [], "d_V": [], "d_E": []}
     for s in range(0, len(gt), batch_size):

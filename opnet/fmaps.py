@@ -73,7 +73,9 @@ def fmap_from_soft_map(source: Eigenbasis, target: Eigenbasis, soft_map) -> Func
     """
     _check_bases(source, target)
     n_t, n_s = target.mesh.n_vertices, source.mesh.n_vertices
-    P = soft_map.tocsr() if sp.issparse(soft_map) else np.asarray(soft_map, dtype=float)
+    if sp.issparse(soft_map) and soft_map.dtype.kind not in "fiu":
+        raise TypeError(f"soft_map must hold real probabilities, got {soft_map.dtype} values.")
+    P = soft_map.tocsr() if sp.issparse(soft_map) else real_array("soft_map", soft_map, finite=False)
     if P.shape != (n_t, n_s):
         raise ValueError(f"soft_map must have shape (n_target, n_source) = ({n_t}, {n_s}), got {P.shape}.")
     values = P.data if sp.issparse(P) else P

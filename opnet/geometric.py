@@ -27,11 +27,11 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from .inner_products import get_inner_product
+from ._checks import is_integer, real_array
+from .inner_products import checked_gram, get_inner_products
+from .mesh import check_shapes, unique_edges
 from .shape_difference import KINDS, pinv_psd
 from .spectral import Eigenbasis, cotan_edge_weights
-from ._checks import real_array
-from .mesh import check_shapes, unique_edges
 from .torch_ops import ShapeDifferences
 
 __all__ = ["reconstruct", "truncate_operators", "operator_mismatch", "OPTIMIZERS"]
@@ -76,11 +76,15 @@ def truncate_operators(operators, base_basis: Eigenbasis, channels, m: int) -> n
     ``(K₀)ₘ⁺ (K₀ D)ₘ`` on the leading ``m × m`` blocks: exact, for every kind (tested against the operators
     computed with the truncated basis).
     """
-    out = np.empty((len(operators), len(channels), m, m))
+    ips, k = get_inner_products(channels), base_basis.k
+    operators = real_array("operators", operators, ("B", len(ips), k, k), hint=f"(channels {tuple(channels)})")
+    if not is_integer(m) or not 1 <= m <= k:
+        raise ValueError(f"m must be an integer in [1, k={k}] (the base basis has {k} functions), got {m!r}.")
+    out = np.empty((len(operators), len(ips), m, m))
     mesh = base_basis.mesh
-    for c, kind in enumerate(channels):
-        K0 = get_inner_product(kind).project(mesh.vertices, mesh.faces, base_basis.evecs)
-        out[:, c] = pinv_psd(K0[:m, :m]) @ (K0 @ np.asarray(operators, dtype=np.float64)[:, c])[:, :m, :m]
+    for c, ip in enumerate(ips):
+        K0 = checked_gram(ip, "project", mesh.vertices, mesh.faces, base_basis.evecs)
+        out[:, c] = pinv_psd(K0[:m, :m]) @ (K0 @ operators[:, c])[:, :m, :m]
     return out
 
 

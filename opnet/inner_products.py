@@ -31,6 +31,7 @@ __all__ = [
     "ExtrinsicInnerProduct",
     "INNER_PRODUCTS",
     "get_inner_product",
+    "get_inner_products",
     "checked_gram",
 ]
 
@@ -173,6 +174,16 @@ def _extrinsic_gram(evecs: np.ndarray, a: np.ndarray, vertices: np.ndarray) -> n
     pa, pu, py = evecs.T @ a[..., None], evecs.T @ u[..., None], evecs.T @ y  # (..., k, 1|3)
     low_rank = pu @ np.swapaxes(pa, -1, -2) + pa @ np.swapaxes(pu, -1, -2) - 2 * py @ np.swapaxes(py, -1, -2)
     return _weighted_gram(evecs, rowsum) - low_rank
+
+
+def get_inner_products(kinds) -> list[InnerProduct]:
+    """The inner products of a non-empty sequence of kinds (each as in :func:`get_inner_product`)."""
+    if isinstance(kinds, (str, InnerProduct)):
+        raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a single one.")
+    ips = [get_inner_product(kind) for kind in kinds]
+    if not ips:
+        raise ValueError("kinds is empty: ask for at least one of opnet.KINDS (or an InnerProduct).")
+    return ips
 
 
 def checked_gram(ip: InnerProduct, method: str, *args) -> np.ndarray:

@@ -32,8 +32,8 @@ from scipy.spatial import cKDTree
 from .fmaps import FunctionalMap
 from .mesh import Mesh, closest_points_on_faces, edge_face_counts, face_areas
 from .metrics import mesh_volume
-from .shape_difference import KINDS, _check_base, base_pinvs, shape_differences
-from .inner_products import checked_gram, get_inner_product
+from .shape_difference import KINDS, _check_base, base_pinvs, fast_path
+from .inner_products import checked_gram, get_inner_products
 from .spectral import Eigenbasis, eigenbasis
 
 __all__ = ["SurfaceMap", "MapQualityWarning", "compute_map", "map_from_p2p", "closest_point_map", "encode",
@@ -277,11 +277,7 @@ def operators_through_map(surface_map, kinds=KINDS) -> np.ndarray:
     basis = maps[0].base
     if any(sm.base is not basis for sm in maps):
         raise ValueError("the maps go onto different bases; encode them one base at a time.")
-    if isinstance(kinds, str):
-        raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
-    if len(kinds) == 0:
-        raise ValueError("kinds is empty: ask for at least one of opnet.KINDS (or an InnerProduct).")
-    ips = [get_inner_product(kind) for kind in kinds]
+    ips = get_inner_products(kinds)
     pinvs = base_pinvs(basis, ips)
     out = np.stack([np.stack([k0_pinv @ checked_gram(ip, "pull_back", sm.mesh.vertices, sm.mesh.faces, sm.to_base,
                                                      basis.evecs) for ip, k0_pinv in zip(ips, pinvs)]) for sm in maps])
@@ -321,7 +317,7 @@ def encode(mesh: Mesh, base_basis: Eigenbasis, *, fmap=None, kinds=KINDS, warn: 
                 f"has {mesh.n_vertices} vertices{'' if mesh.n_vertices != base.n_vertices else ' and other faces'}: "
                 "pass fmap='computed' to compute a map, or fmap=p2p if you know each vertex's base vertex."
             )
-        return shape_differences(base_basis, mesh.vertices[None], kinds, progress=False)[0]
+        return fast_path(base_basis, mesh.vertices[None], get_inner_products(kinds))[0]  # the mesh is checked
     if isinstance(fmap, str):
         if fmap != "computed":
             raise ValueError(f"fmap must be None, 'computed', an integer vertex map or a SurfaceMap, got {fmap!r}.")

@@ -9,12 +9,12 @@ from __future__ import annotations
 from functools import cached_property
 from pathlib import Path
 
-import warnings
-
 import numpy as np
 import potpourri3d as pp3d
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
+
+from ._checks import real_array, warn_user
 
 __all__ = ["Mesh", "MeshError", "MeshWarning", "face_quality", "check_shapes", "span", "load_mesh", "unique_edges", "edge_face_counts", "face_areas", "degenerate_faces",
            "farthest_first", "furthest_vertices", "vertex_faces", "closest_points_on_faces"]
@@ -126,10 +126,10 @@ def triangle_areas(corners: np.ndarray) -> np.ndarray:
 
 
 # A triangle's quality q = 4√3 · area / (sum of its squared edge lengths): 1 for an equilateral triangle, 0 for
-# a collapsed one, the same at every scale. Its cotan weights grow like 1/q: measured on the toy finger, a
-# single face of quality q changes the conformal operator by ≈ 0.004 / q (relative Frobenius), so
-# below WARN_QUALITY one face outweighs the whole shape, and below REFUSE_QUALITY the weights are noise.
-# Generated bodies, heads and hands have q ≥ 0.004.
+# a collapsed one, the same at every scale. Its cotan weights grow like 1/q: thinning one face of the toy capsule
+# to quality q changes its conformal operator by ≈ 0.015 / q (relative Frobenius; ≈ 0.004 / q on the toy finger),
+# so below WARN_QUALITY one face outweighs the whole shape many times, and below REFUSE_QUALITY the weights are
+# noise. The generated shapes stay above it: q ≥ 1.2e-3 (humans, quick and default), 4e-3 (heads), 8.8e-4 (hands).
 WARN_QUALITY = 1e-4
 REFUSE_QUALITY = 1e-8
 # Bounding-box diagonals outside this range under/overflow float64 areas and the extrinsic operator (∝ length⁶).
@@ -142,11 +142,9 @@ class MeshWarning(UserWarning):
 
 def span(vertices: np.ndarray) -> np.ndarray:
     """Bounding-box diagonal ``(...)`` of shapes ``(..., n, 3)`` (length unit), without overflow for large coordinates."""
-    extent = vertices.max(-2) - vertices.min(-2)
-    scale = extent.max(-1, keepdims=True)
-    unit = np.where(scale > 0, scale, 1.0)
-    with np.errstate(invalid="ignore"):
-        return scale[..., 0] * np.linalg.norm(extent / unit, axis=-1)
+    scale = np.abs(vertices).max(axis=(-2, -1), keepdims=True)
+    unit = vertices / np.where(scale > 0, scale, 1.0)  # in [-1, 1]: the extent cannot overflow
+    return scale[..., 0, 0] * np.linalg.norm(unit.max(-2) - unit.min(-2), axis=-1)
 
 
 def face_quality(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -156,7 +154,12 @@ def face_quality(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     overflows at extreme scales; a shape whose vertices all coincide has quality 0.
     """
     scale = np.abs(vertices).max(axis=(-2, -1), keepdims=True)
-    corners = (vertices / np.where(scale > 0, scale, 1.0))[..., faces, :]
+    return _quality(vertices / np.where(scale > 0, scale, 1.0), faces)
+
+
+def _quality(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """:func:`face_quality` of shapes whose span is within ``SPAN_RANGE`` (no rescaling needed)."""
+    corners = vertices[..., faces, :]
     edges2 = sum(np.sum((corners[..., (c + 1) % 3, :] - corners[..., c, :]) ** 2, axis=-1) for c in range(3))
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.nan_to_num(4 * np.sqrt(3) * triangle_areas(corners) / edges2)
@@ -171,15 +174,15 @@ def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_si
     """Refuse shapes ``(B, n, 3)`` sharing ``faces`` whose scale is out of range or that have collapsed faces
     (``ValueError`` naming ``name`` and the first shape), and warn (:class:`MeshWarning`) about near-degenerate
     ones. Checked ``batch_size`` shapes at a time (the triangles of a whole collection take gigabytes)."""
-    quality = np.concatenate([np.zeros(0)] + [face_quality(vertices[s:s + batch_size], faces).min(-1)
-                                              for s in range(0, len(vertices), batch_size)])
     spans = span(vertices)
-    bad = ((spans > 0) & (spans < SPAN_RANGE[0])) | ~(spans <= SPAN_RANGE[1])  # 0: all faces collapsed, below
+    bad = ((spans > 0) & (spans < SPAN_RANGE[0])) | (spans > SPAN_RANGE[1])  # 0: all faces collapsed, below
     if bad.any():
         i = np.flatnonzero(bad)[0]
         raise ValueError(f"{name}: {bad.sum()} shapes span a bounding-box diagonal outside {list(SPAN_RANGE)} length "
                          f"units (first: shape {i}, {spans[i]:.3g}), where float64 areas and the extrinsic operator "
                          "under- or overflow; rescale the coordinates.")
+    quality = np.concatenate([np.zeros(0)] + [_quality(vertices[s:s + batch_size], faces).min(-1)
+                                              for s in range(0, len(vertices), batch_size)])
     for what, limit in (("zero-area (collapsed)", REFUSE_QUALITY), ("near-degenerate", WARN_QUALITY)):
         low = quality < limit
         if low.any():
@@ -188,9 +191,7 @@ def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_si
                     f"shape {i}, quality {quality[i]:.2g}); ")
             if limit == REFUSE_QUALITY:
                 raise ValueError(text + "cotan weights are undefined there. Drop or repair those shapes.")
-            warnings.warn(text + "their cotan weights (∝ 1/quality) dominate the conformal operator.", MeshWarning,
-                          stacklevel=3)
-            break
+            warn_user(text + "their cotan weights (∝ 1/quality) dominate the conformal operator.", MeshWarning)
 
 
 def edge_face_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -205,21 +206,15 @@ def unique_edges(faces: np.ndarray) -> np.ndarray:
 
 
 def _as_vertices(vertices) -> np.ndarray:
+    """A float64 copy (the mesh freezes it) of checked ``(n, 3)`` coordinates, or a :class:`MeshError`."""
     try:
-        v = np.asarray(vertices)
-    except Exception as exc:  # ragged lists and the like
-        raise MeshError(f"vertices could not be read as an array ({exc}); pass an (n, 3) float array.") from None
-    if v.dtype.kind not in "fiu":
-        raise MeshError(f"vertices have dtype {v.dtype}; pass real numbers, e.g. np.asarray(vertices, dtype=float).")
-    if v.ndim != 2 or v.shape[1] != 3:
-        raise MeshError(f"vertices have shape {v.shape}; a mesh needs an (n, 3) array of xyz coordinates.")
-    v = v.astype(np.float64)
+        v = real_array("vertices", vertices, ("n", 3), finite=False, hint="(xyz coordinates)").copy()
+    except (TypeError, ValueError) as exc:
+        raise MeshError(str(exc)) from None
     bad = ~np.isfinite(v).all(axis=1)
     if bad.any():
-        raise MeshError(
-            f"{bad.sum()} vertices have NaN or infinite coordinates (first: vertex {np.flatnonzero(bad)[0]}); "
-            "remove or repair them before building the mesh."
-        )
+        raise MeshError(f"{bad.sum()} vertices have NaN or infinite coordinates (first: vertex {np.flatnonzero(bad)[0]}); "
+                        "remove or repair them before building the mesh.")
     return v
 
 
@@ -325,15 +320,16 @@ class Mesh:
                 raise MeshError(_components_message(v, f, labels, n_comp))
             v, f, kept = _largest_component(v, f, labels)
         diagonal = float(span(v))
-        if not normalize_area and (0 < diagonal < SPAN_RANGE[0] or not diagonal <= SPAN_RANGE[1]):  # 0: collapsed
+        if normalize_area and diagonal > 0:  # checked and normalised at unit size, so that any finite scale works
+            v = v / diagonal
+        elif 0 < diagonal < SPAN_RANGE[0] or diagonal > SPAN_RANGE[1]:  # 0: all faces collapsed, said below
             raise MeshError(
                 f"the mesh spans {diagonal:.3g} length units (bounding-box diagonal), outside {list(SPAN_RANGE)}, where "
                 "float64 areas and the extrinsic operator (∝ length⁶) under- or overflow; rescale the coordinates "
                 f"(e.g. vertices / {diagonal:.3g}) or pass normalize_area=True."
             )
         self._check_faces(v, f)
-        if normalize_area:  # in coordinates scaled to a unit box first, so that any finite scale works
-            v = v / diagonal
+        if normalize_area:
             a = face_areas(v, f)
             centroid = (a[:, None] * v[f].mean(axis=1)).sum(0) / a.sum()
             v = (v - centroid) / np.sqrt(a.sum())
@@ -352,7 +348,7 @@ class Mesh:
                 f"{repeated.sum()} faces repeat a vertex (first: face {np.flatnonzero(repeated)[0]} = {f[repeated][0].tolist()}); "
                 "remove degenerate faces, e.g. trimesh's mesh.update_faces(mesh.nondegenerate_faces())."
             )
-        quality = face_quality(v, f)
+        quality = _quality(v, f)
         for limit in (REFUSE_QUALITY, WARN_QUALITY):
             low = np.flatnonzero(quality < limit)
             if len(low) == 0:
@@ -362,12 +358,15 @@ class Mesh:
             text = (f"{len(low)} faces have quality 4√3·area/Σedge² below {limit:g} (worst: face {worst[0]}, quality "
                     f"{quality[worst[0]]:.2g}{others}; an equilateral triangle has 1)")
             if limit == REFUSE_QUALITY:
-                raise MeshError(text + "; they have zero area or nearly, and cotan weights are undefined there. Remove them or merge "
-                                "their collinear/duplicate vertices (trimesh: merge_vertices, update_faces("
-                                "nondegenerate_faces())).")
-            warnings.warn(text + ": their cotan weights (∝ 1/quality) dominate the conformal operator. Remesh "
-                          "(e.g. isotropic remeshing in pymeshlab) or leave the conformal channel out.", MeshWarning,
-                          stacklevel=3)
+                size, distance = float(span(v)), float(np.abs(v).max())
+                cause = (f" The shape spans {size:.2g} at {distance:.2g} from the origin: it is smaller than its distance "
+                         "from the origin by more than float64 resolves; centre the coordinates where they are made."
+                         if size < 1e-8 * distance else "")
+                raise MeshError(text + "; they have zero area or nearly, and cotan weights are undefined there. Remove "
+                                "them or merge their collinear/duplicate vertices (trimesh: merge_vertices, "
+                                "update_faces(nondegenerate_faces())). " + cause)
+            warn_user(text + ": their cotan weights (∝ 1/quality) dominate the conformal operator. Remesh (e.g. "
+                      "isotropic remeshing in pymeshlab) or leave the conformal channel out.", MeshWarning)
         _, counts = edge_face_counts(f)
         if (counts > 2).any():
             raise MeshError(
@@ -403,11 +402,11 @@ class Mesh:
 
     def with_vertices(self, vertices) -> "Mesh":
         """The same connectivity with new coordinates ``(n, 3)`` (validated)."""
-        shape = np.shape(vertices)
-        if len(shape) == 2 and shape[0] != self.n_vertices:
-            raise MeshError(f"the coordinates are for {shape[0]} vertices, this mesh has {self.n_vertices}: pass new "
+        v = _as_vertices(vertices)
+        if len(v) != self.n_vertices:
+            raise MeshError(f"the coordinates are for {len(v)} vertices, this mesh has {self.n_vertices}: pass new "
                             f"coordinates ({self.n_vertices}, 3) of the same vertices, or a Mesh of its own (and a map).")
-        return Mesh(vertices, self.faces)
+        return Mesh(v, self.faces)
 
     def __repr__(self) -> str:
         return f"Mesh(n_vertices={self.n_vertices}, n_faces={self.n_faces}, area={self.area:.4g})"

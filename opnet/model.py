@@ -26,9 +26,11 @@ VARIANTS = {"paper": dict(), "ours": dict(standardize=True, residual=True)}
 def as_input(name: str, x, module: nn.Module, shape: tuple, shape_text: str) -> torch.Tensor:
     """``x`` as a tensor of ``module``'s dtype on its device, of shape ``shape`` (``None``: any size).
 
-    Tensors, numpy arrays and lists of real numbers are converted when no precision is lost (float32 or lower
-    for a float32 network, integers); float64 for a float32 network is refused with the fix, as are complex,
-    non-numeric and wrongly shaped values. ``TypeError``/``ValueError`` name ``name`` and ``shape_text``.
+    Tensors and arrays of the network's precision or narrower (float16 for a float32 network, integers) are
+    converted; nested lists, which carry no precision, are read in the network's. Wider floats (float64 for a
+    float32 network) are refused with the fix, as are complex, non-numeric and wrongly shaped values
+    (``TypeError``/``ValueError`` naming ``name`` and ``shape_text``). Values are not checked for NaN here, in
+    the training loop's path: :func:`opnet.evaluate.predict` and :func:`opnet.evaluate.decode` check them.
     """
     param = next(module.parameters())
     fix = (f"pass {shape_text} real values in {str(param.dtype).replace('torch.', '')} (x.float() or "
@@ -44,8 +46,9 @@ def as_input(name: str, x, module: nn.Module, shape: tuple, shape_text: str) -> 
     if x.is_complex() or x.dtype == torch.bool:
         raise TypeError(f"{name} must hold real numbers, got {x.dtype}; {fix}.")
     if x.is_floating_point() and x.dtype != param.dtype and x.element_size() > param.element_size():
-        raise TypeError(f"{name} is {str(x.dtype).replace('torch.', '')} but this network computes in "
-                        f"{str(param.dtype).replace('torch.', '')}, which would round it; {fix} (or net.double()).")
+        raise TypeError(f"{name} is {str(x.dtype).replace('torch.', '')} of shape {tuple(x.shape)} but this network "
+                        f"computes in {str(param.dtype).replace('torch.', '')}, which would round it; {fix} (or "
+                        "net.double()).")
     if x.ndim != len(shape) or any(s is not None and a != s for a, s in zip(x.shape, shape)):
         raise ValueError(f"{name} must have shape {shape_text}, got {tuple(x.shape)}.")
     return x.to(dtype=param.dtype, device=param.device)
@@ -261,8 +264,8 @@ def rigid_alignment_loss(pred: torch.Tensor, target: torch.Tensor, reduction: st
     """
     if not isinstance(pred, torch.Tensor) or not pred.is_floating_point():
         raise TypeError(f"pred must be a floating-point tensor (B, n, 3) (the network's output), got {describe(pred)}.")
-    if not isinstance(target, torch.Tensor):  # e.g. numpy coordinates: converted without loss
-        target = torch.as_tensor(real_array("target", target), device=pred.device)
+    if not isinstance(target, torch.Tensor):  # e.g. numpy coordinates, in pred's precision like the loss
+        target = torch.as_tensor(real_array("target", target), dtype=pred.dtype, device=pred.device)
     elif target.is_complex() or not target.is_floating_point():
         raise TypeError(f"target must be a floating-point tensor (B, n, 3), got {describe(target)}.")
     if pred.shape != target.shape or pred.ndim != 3 or pred.shape[-1] != 3:
@@ -271,11 +274,10 @@ def rigid_alignment_loss(pred: torch.Tensor, target: torch.Tensor, reduction: st
         raise ValueError("the batch is empty (B = 0): the loss of no shapes is undefined; pass at least one shape.")
     if reduction not in ("mean", "none"):
         raise ValueError(f"reduction must be 'mean' or 'none', got {reduction!r}.")
-    try:
-        R, t = kabsch_torch(pred, target)
-    except torch.linalg.LinAlgError:  # the SVD refuses non-finite input: say which argument holds it
-        name = "pred" if not torch.isfinite(pred).all() else "target"
-        raise ValueError(f"{name} contains NaN or infinite coordinates.") from None
+    for name, x in (("pred", pred), ("target", target)):  # the SVD would fail on them (or return NaN on a GPU)
+        if not torch.isfinite(x).all():
+            raise ValueError(f"{name} contains NaN or infinite coordinates.")
+    R, t = kabsch_torch(pred, target)
     aligned = pred @ R.transpose(1, 2) + t[:, None, :]
     per_shape = ((aligned - target) ** 2).sum(-1).mean(-1)
     return per_shape.mean() if reduction == "mean" else per_shape

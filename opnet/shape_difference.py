@@ -12,11 +12,13 @@ Two ways to evaluate ``Cᵀ K_i C``:
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from tqdm.auto import tqdm
 
 from .fmaps import FunctionalMap
-from .inner_products import checked_gram, get_inner_product
+from .inner_products import checked_gram, get_inner_product, get_inner_products
 from ._checks import check_int, real_array
 from .mesh import Mesh, check_shapes
 from .spectral import Eigenbasis
@@ -40,8 +42,8 @@ def pinv_psd(K: np.ndarray, rtol: float | None = None) -> np.ndarray:
     matrix is not PSD, so it is no inner product.
     """
     K = real_array("K", K)
-    if K.ndim != 2 or K.shape[0] != K.shape[1]:
-        raise ValueError(f"K must be a square (k, k) matrix, got shape {K.shape}.")
+    if K.ndim != 2 or K.shape[0] != K.shape[1] or len(K) == 0:
+        raise ValueError(f"K must be a square (k, k) matrix with k >= 1, got shape {K.shape}.")
     K = 0.5 * (K + K.T)
     rtol = 10 * len(K) * np.finfo(float).eps if rtol is None else rtol
     w, U = np.linalg.eigh(K)
@@ -91,6 +93,9 @@ def shape_difference(base_basis: Eigenbasis, target, kind="area", fmap: Function
     _check_base(base_basis)
     ip = get_inner_product(kind)
     base = base_basis.mesh
+    if isinstance(target, (str, Path)):
+        raise TypeError(f"target must be an opnet.Mesh or coordinates ({base.n_vertices}, 3), got the path {target!r}; "
+                        "read the file with opnet.load_mesh(path).")
     if not isinstance(target, Mesh):
         target = base.with_vertices(target)
     if fmap is None:
@@ -142,16 +147,21 @@ def shape_differences(
     """
     _check_base(base_basis)
     base = base_basis.mesh
+    ips = get_inner_products(kinds)
     vertices = real_array("vertices", vertices, ("B", base.n_vertices, 3), hint="to share the base's faces")
     check_int("batch_size", batch_size)
     check_shapes("vertices", vertices, base.faces, batch_size=batch_size)
-    starts = range(0, len(vertices), batch_size)
-    if isinstance(kinds, str):
-        raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
-    ips = [get_inner_product(kind) for kind in kinds]
-    phi, faces = base_basis.evecs, base.faces
+    return fast_path(base_basis, vertices, ips, batch_size=batch_size, progress=progress)
+
+
+def fast_path(base_basis: Eigenbasis, vertices: np.ndarray, ips: list, *, batch_size: int = 64,
+              progress: bool | None = False) -> np.ndarray:
+    """:func:`shape_differences` of shapes already checked (float64 ``(B, n, 3)``, valid faces), for inner
+    products ``ips``; for callers that validated their input once already."""
+    phi, faces = base_basis.evecs, base_basis.mesh.faces
     k0_pinv = base_pinvs(base_basis, ips)
     out = np.empty((len(vertices), len(ips), base_basis.k, base_basis.k))
+    starts = range(0, len(vertices), batch_size)
     show = len(starts) > 1 if progress is None else progress
     for s in tqdm(starts, desc="shape differences", unit="batch", disable=not show):
         chunk = vertices[s : s + batch_size]

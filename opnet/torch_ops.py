@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from ._checks import real_array
 from .mesh import unique_edges
 from .shape_difference import KINDS, base_pinvs
 from .spectral import Eigenbasis, _corner_to_edge
@@ -122,16 +123,15 @@ class ShapeDifferences(torch.nn.Module):
         return _weighted_gram(phi, rowsum) - low_rank
 
     def _check(self, X) -> torch.Tensor:
-        if not isinstance(X, torch.Tensor):
-            arr = np.asarray(X)
-            if arr.dtype.kind not in "fiu":
-                raise TypeError(f"X must be a real (B, {self.n_vertices}, 3) tensor or array, got {arr.dtype} values.")
-            X = torch.as_tensor(arr, dtype=self.phi.dtype)
+        if not isinstance(X, torch.Tensor):  # arrays and lists: checked, then in the basis' precision
+            X = torch.as_tensor(real_array("X", X, ("B", self.n_vertices, 3), finite=False), dtype=self.phi.dtype)
         if X.is_complex() or not (X.is_floating_point() or X.dtype in (torch.int32, torch.int64)):
             raise TypeError(f"X must hold real numbers, got {X.dtype}; pass float32 or float64 coordinates.")
         if X.ndim != 3 or tuple(X.shape[1:]) != (self.n_vertices, 3):
             raise ValueError(f"X must have shape (B, {self.n_vertices}, 3) (coordinates on the base's triangulation), "
                              f"got {tuple(X.shape)}.")
+        if len(X) == 0:
+            raise ValueError("X is an empty batch (B = 0); pass at least one shape.")
         if not X.is_floating_point():
             X = X.to(self.phi.dtype)
         if not torch.isfinite(X).all():

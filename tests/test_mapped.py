@@ -36,6 +36,26 @@ def test_true_maps_of_the_base_triangulation_give_the_exact_operators(few, tmp_p
     assert same.meta["maps"] == "true" and same.meta["map_resolution"] == "1k"
 
 
+def test_a_failed_save_keeps_the_built_operators(few, tmp_path, monkeypatch):
+    """When the final save fails (e.g. the disk filled up), the collection is returned with a warning and the
+    parts stay, so the next call assembles them without recomputing a map."""
+    from opnet import matching
+    from opnet.data import collections
+
+    def no_space(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(collections, "save_collection", no_space)
+    with pytest.warns(UserWarning, match="could not be saved.*No space left"):
+        first = mapped_collection(few, "1k", "true", root=tmp_path, n_jobs=1, chunk=4, progress=False)
+    assert list(tmp_path.glob("*.part-*.npz"))
+    monkeypatch.undo()
+    monkeypatch.setattr(matching, "operators_through_map", lambda *a, **k: pytest.fail("recomputed a map"))
+    again = mapped_collection(few, "1k", "true", root=tmp_path, n_jobs=1, chunk=4, progress=False)
+    np.testing.assert_array_equal(again.operators, first.operators)
+    assert not list(tmp_path.glob("*.part-*.npz"))
+
+
 class Interrupted(Exception):
     """Stands for a kill or Ctrl-C in the middle of a build."""
 

@@ -215,7 +215,7 @@ def test_decode_accepts_one_or_many_and_picks_the_networks_channels(humans):
         opnet.decode(net, ops[:, :2], kinds=("area", "conformal"))
     with pytest.raises(TypeError, match="OperatorNet"):
         opnet.decode("net", ops)
-    with pytest.raises(TypeError, match="not a string"):
+    with pytest.raises(TypeError, match="not a single one"):
         opnet.decode(net, ops[:, 2:], kinds="extrinsic")
     bad = ops.copy()
     bad[0, 0, 0, 0] = np.nan

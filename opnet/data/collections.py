@@ -31,6 +31,7 @@ import os
 import re
 import shutil
 import warnings
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -122,7 +123,8 @@ def _stem(path) -> Path:
 
 
 def _data_files(stem: Path) -> list[Path]:
-    return [p for p in stem.parent.glob(stem.name + ".*.npz") if _data_name(stem).fullmatch(p.name)]
+    pattern = _data_name(stem)
+    return [p for p in stem.parent.glob(stem.name + ".*.npz") if pattern.fullmatch(p.name)]
 
 
 def _data_name(stem: Path) -> re.Pattern:
@@ -221,7 +223,7 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
             raise ValueError(f"its arrays {shapes} are not those of the manifest {manifest.get('shapes')}")
         base = Mesh(data.pop("base_vertices"), data["faces"])
         basis = Eigenbasis(base, data.pop("base_evals"), data.pop("base_evecs"), data.pop("base_mass"))
-    except Exception as exc:
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
         raise CollectionError(f"{data_path} matches its checksum but cannot be read as a collection "
                               f"({type(exc).__name__}: {str(exc)[:200]}); {fix}.") from None
     params = {k[len("param_"):]: data.pop(k) for k in list(data) if k.startswith("param_")}
