@@ -29,6 +29,8 @@ run: $(STAMP)
 	@echo "executed notebooks: build/notebooks/  HTML: build/html/"
 
 test: $(STAMP)
+	$(PY) -m ruff format --check .
+	$(PY) -m ruff check .
 	OPNET_PRESET=quick OPNET_STATIC_WIDGETS=1 $(PY) -m pytest
 
 reproduce: $(STAMP)

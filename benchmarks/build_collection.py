@@ -10,6 +10,7 @@ Run::
     .venv/bin/python benchmarks/build_collection.py                    # humans, default preset
     .venv/bin/python benchmarks/build_collection.py --preset quick --name hands
 """
+
 from __future__ import annotations
 
 import argparse
@@ -32,7 +33,11 @@ def main() -> None:
     args = parser.parse_args()
 
     t0 = time.perf_counter()
-    models = {"humans": lambda: bodies.human_model(args.resolution or "1k"), "heads": bodies.head_model, "hands": bodies.hand_model}
+    models = {
+        "humans": lambda: bodies.human_model(args.resolution or "1k"),
+        "heads": bodies.head_model,
+        "hands": bodies.hand_model,
+    }
     models[args.name]()  # anny's one-time cache and model construction, not counted
     warm = time.perf_counter() - t0
 
@@ -44,30 +49,37 @@ def main() -> None:
             out = fn(*a, **k)
             stages[label] = stages.get(label, 0.0) + time.perf_counter() - t
             return out
+
         return wrapper
 
     patches = [
         mock.patch.object(bodies, name, timed(f"meshes ({name})", getattr(bodies, name)))
-        for name in ("human_vertices", "head_vertices", "hand_vertices") if hasattr(bodies, name)
+        for name in ("human_vertices", "head_vertices", "hand_vertices")
+        if hasattr(bodies, name)
     ] + [
         mock.patch.object(collections, "eigenbasis", timed("base eigenbasis", collections.eigenbasis)),
-        mock.patch.object(collections, "shape_differences", timed("operators (fast path)", collections.shape_differences)),
+        mock.patch.object(
+            collections, "shape_differences", timed("operators (fast path)", collections.shape_differences)
+        ),
         mock.patch.object(collections, "save_collection", timed("write + checksum", collections.save_collection)),
     ]
     with tempfile.TemporaryDirectory() as root:
         for p in patches:
             p.start()
         t = time.perf_counter()
-        coll = opnet.data.load_collection(args.name, args.preset, root, resolution=args.resolution, rebuild=True,
-                                          progress=False)
+        coll = opnet.data.load_collection(
+            args.name, args.preset, root, resolution=args.resolution, rebuild=True, progress=False
+        )
         total = time.perf_counter() - t
         for p in patches:
             p.stop()
         size = sum(f.stat().st_size for f in os.scandir(root)) / 1e6
 
     print(f"# Collection build: {args.name}, preset {args.preset}, resolution {coll.meta['resolution']}\n")
-    print(f"{len(coll)} shapes × {coll.vertices.shape[1]} vertices, k = {coll.base_basis.k}; {size:.0f} MB on disk; "
-          f"{os.cpu_count()} CPUs; body model loaded in {warm:.1f} s beforehand (not counted)\n")
+    print(
+        f"{len(coll)} shapes × {coll.vertices.shape[1]} vertices, k = {coll.base_basis.k}; {size:.0f} MB on disk; "
+        f"{os.cpu_count()} CPUs; body model loaded in {warm:.1f} s beforehand (not counted)\n"
+    )
     print("| stage | seconds |\n|---|---:|")
     for label, s in stages.items():
         print(f"| {label} | {s:.1f} |")

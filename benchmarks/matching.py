@@ -13,6 +13,7 @@ Run::
 
     .venv/bin/python benchmarks/matching.py --preset default --shapes 16 --runs /path/to/reproduce-default/runs
 """
+
 from __future__ import annotations
 
 import argparse
@@ -32,7 +33,9 @@ def main(argv=None):
     ap.add_argument("--preset", default="quick", help="collection preset (quick | default | paper)")
     ap.add_argument("--shapes", type=int, default=6, help="val shapes, evenly spaced (6)")
     ap.add_argument("--resolutions", nargs="+", default=["2k", "5k"])
-    ap.add_argument("--runs", type=Path, default=None, help="a reproduce runs/ folder: decode with its table1-* networks")
+    ap.add_argument(
+        "--runs", type=Path, default=None, help="a reproduce runs/ folder: decode with its table1-* networks"
+    )
     args = ap.parse_args(argv)
     ds = opnet.data.load_collection("humans", args.preset)
     basis = ds.base_basis
@@ -45,14 +48,20 @@ def main(argv=None):
             nets[run.name] = opnet.train.load_model(run, ds)
     spectrum = opnet.eigenbasis(basis.mesh, 100)
     print(f"{ds}; {len(idx)} val shapes")
-    header = (f"{'mesh':>4s} {'map':>14s} {'s/map':>6s} {'err':>7s} {'cm':>5s} {'mirrored':>8s} {'coverage':>8s} "
-              f"{'orient.':>7s} {'area':>6s} {'conf.':>6s} {'ext.':>6s}" + "".join(f" {n[7:]:>16s}" for n in nets))
+    header = (
+        f"{'mesh':>4s} {'map':>14s} {'s/map':>6s} {'err':>7s} {'cm':>5s} {'mirrored':>8s} {'coverage':>8s} "
+        f"{'orient.':>7s} {'area':>6s} {'conf.':>6s} {'ext.':>6s}" + "".join(f" {n[7:]:>16s}" for n in nets)
+    )
     print(header)
     if nets:
-        exact = [np.mean([opnet.d_R(x, g) for x, g in zip(opnet.decode(net, truth_ops), ds.vertices[idx])]) * 1e4
-                 for net in nets.values()]
-        print(f"{'1k':>4s} {'exact':>14s} {'':>6s} {'':>7s} {'':>5s} {'':>8s} {'':>8s} {'':>7s} {0:6.3f} {0:6.3f} "
-              f"{0:6.3f}" + "".join(f" {e:16.3g}" for e in exact))
+        exact = [
+            np.mean([opnet.d_R(x, g) for x, g in zip(opnet.decode(net, truth_ops), ds.vertices[idx])]) * 1e4
+            for net in nets.values()
+        ]
+        print(
+            f"{'1k':>4s} {'exact':>14s} {'':>6s} {'':>7s} {'':>5s} {'':>8s} {'':>8s} {'':>7s} {0:6.3f} {0:6.3f} "
+            f"{0:6.3f}" + "".join(f" {e:16.3g}" for e in exact)
+        )
     signal = np.linalg.norm(truth_ops - np.eye(basis.k), axis=(2, 3))  # (N, 3)
     for res in args.resolutions:
         faces = bodies.human_faces(res)
@@ -76,15 +85,19 @@ def main(argv=None):
             rel = (np.linalg.norm(ops - truth_ops, axis=(2, 3)) / signal).mean(0)
             coverage, orientation = np.mean(quality, axis=0)
             cm = np.mean(errors) * np.sqrt(basis.mesh.area) * 100
-            line = (f"{res:>4s} {label:>14s} {np.mean(seconds) if options is not None else 0:6.2f} {np.mean(errors):7.4f} "
-                    f"{cm:5.2f} {mirrored:>3d}/{len(idx):<4d} {coverage:8.3f} {orientation:7.3f} "
-                    f"{rel[0]:6.3f} {rel[1]:6.3f} {rel[2]:6.3f}")
+            line = (
+                f"{res:>4s} {label:>14s} {np.mean(seconds) if options is not None else 0:6.2f} {np.mean(errors):7.4f} "
+                f"{cm:5.2f} {mirrored:>3d}/{len(idx):<4d} {coverage:8.3f} {orientation:7.3f} "
+                f"{rel[0]:6.3f} {rel[1]:6.3f} {rel[2]:6.3f}"
+            )
             for net in nets.values():
                 recon = opnet.decode(net, ops)
                 line += f" {np.mean([opnet.d_R(x, g) for x, g in zip(recon, ds.vertices[idx])]) * 1e4:16.3g}"
             print(line, flush=True)
-    print("err: mean distance on the base between the map's image and the truth's, in sqrt(base area); "
-          "area/conf./ext.: ‖D − D_true‖ / ‖D_true − I‖ against the 1k operators")
+    print(
+        "err: mean distance on the base between the map's image and the truth's, in sqrt(base area); "
+        "area/conf./ext.: ‖D − D_true‖ / ‖D_true − I‖ against the 1k operators"
+    )
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ Run::
 
     .venv/bin/python benchmarks/pointnet.py --preset quick --points 256 1229   # ~15 min on one core
 """
+
 from __future__ import annotations
 
 import argparse
@@ -34,12 +35,22 @@ def main(argv=None):
     print(f"{ds}\n{'n_points':>9s} {'s/epoch':>8s} {'best val d_R e-4':>17s} {'epoch':>6s}")
     for points in args.points:
         start = time.perf_counter()
-        _, history = opnet.train.fit(ds, architecture="pointnet", n_points=min(points, n),
-                                     epochs=args.epochs or budget.epochs, batch_size=budget.batch_size,
-                                     lr=budget.lr, device="cpu", progress=False)
+        _, history = opnet.train.fit(
+            ds,
+            architecture="pointnet",
+            n_points=min(points, n),
+            epochs=args.epochs or budget.epochs,
+            batch_size=budget.batch_size,
+            lr=budget.lr,
+            device="cpu",
+            progress=False,
+        )
         best = min(history, key=lambda h: h["val_d_R"])
-        print(f"{min(points, n):9d} {(time.perf_counter() - start) / len(history):8.2f} "
-              f"{1e4 * best['val_d_R']:17.2f} {best['epoch']:6d}", flush=True)
+        print(
+            f"{min(points, n):9d} {(time.perf_counter() - start) / len(history):8.2f} "
+            f"{1e4 * best['val_d_R']:17.2f} {best['epoch']:6d}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

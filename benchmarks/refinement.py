@@ -12,6 +12,7 @@ Run::
 
     .venv/bin/python benchmarks/refinement.py --preset default --reproduce-dir build/reproduce-default --every 4
 """
+
 from __future__ import annotations
 
 import argparse
@@ -48,21 +49,27 @@ COARSE_TO_FINE = [[(20, 100), (40, 100), (60, 100)], [(10, 50), (20, 50), (30, 5
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--preset", default="quick", help="collection preset (quick | default | paper)")
-    ap.add_argument("--reproduce-dir", help="the reproduce output whose Int+Ext network is refined "
-                                            "(default: opnet.data.default_root()/reproduce-<preset>)")
+    ap.add_argument(
+        "--reproduce-dir",
+        help="the reproduce output whose Int+Ext network is refined "
+        "(default: opnet.data.default_root()/reproduce-<preset>)",
+    )
     ap.add_argument("--every", type=int, default=4, help="use every N-th val shape (default 4)")
     ap.add_argument("--quick", action="store_true", help="only the first two settings, at most 30 steps")
     args = ap.parse_args(argv)
     coll = opnet.data.load_collection("humans", args.preset)
     out = args.reproduce_dir or opnet.data.default_root() / f"reproduce-{args.preset}"
     net = opnet.train.load_model(run_path(out, "table1", opnet.KINDS, 1), coll)
-    idx = coll.indices("val")[::args.every]
+    idx = coll.indices("val")[:: args.every]
     gt = coll.vertices[idx].astype(np.float64)
     decoded = predict(net, coll.operators[idx])
     grid = [(*g[:4], min(g[4], 30), g[5]) for g in GRID[:2]] if args.quick else GRID
     print(f"# Refinement on val · preset {args.preset}, {len(idx)} shapes\n")
-    print("| start | optimiser | operators | smoothness | " + " | ".join(str(s) for s in SHOWN)
-          + " | final mismatch | s/shape |")
+    print(
+        "| start | optimiser | operators | smoothness | "
+        + " | ".join(str(s) for s in SHOWN)
+        + " | final mismatch | s/shape |"
+    )
     print("|---|---|---|---:|" + "---:|" * (len(SHOWN) + 2))
     for start, optimizer, channels, smoothness, steps, extra in grid:
         curve = {}
@@ -73,25 +80,47 @@ def main(argv=None):
 
         chans = [opnet.KINDS.index(c) for c in channels]
         t = time.perf_counter()
-        opnet.reconstruct(coll.operators[idx][:, chans], coll.base_basis, init=decoded if start == "network" else "base",
-                          channels=channels, steps=steps, optimizer=optimizer, smoothness=smoothness, callback=record,
-                          progress=False, **extra)
+        opnet.reconstruct(
+            coll.operators[idx][:, chans],
+            coll.base_basis,
+            init=decoded if start == "network" else "base",
+            channels=channels,
+            steps=steps,
+            optimizer=optimizer,
+            smoothness=smoothness,
+            callback=record,
+            progress=False,
+            **extra,
+        )
         seconds = (time.perf_counter() - t) / len(idx)
         cells = [f"{1e4 * curve[s][0]:.3f}" if s in curve else "" for s in SHOWN]
         label = "A+E+C" if channels == opnet.KINDS else "A+E"
-        print(f"| {start} | {optimizer} | {label} | {smoothness:g} | " + " | ".join(cells)
-              + f" | {curve[max(curve)][1]:.2g} | {seconds:.2f} |", flush=True)
+        print(
+            f"| {start} | {optimizer} | {label} | {smoothness:g} | "
+            + " | ".join(cells)
+            + f" | {curve[max(curve)][1]:.2g} | {seconds:.2f} |",
+            flush=True,
+        )
     if not args.quick:
         print("\n| coarse-to-fine stages (k: steps) | d_R after each stage | s/shape |\n|---|---|---:|")
         D = coll.operators[idx][:, [opnet.KINDS.index(c) for c in AE]].astype(np.float64)
         for schedule in COARSE_TO_FINE:
             X, t, after = decoded, time.perf_counter(), []
             for m, steps in schedule:
-                X = opnet.reconstruct(truncate_operators(D, coll.base_basis, AE, m), coll.base_basis.truncate(m),
-                                      init=X, channels=AE, steps=steps, smoothness=1.0, progress=False)
+                X = opnet.reconstruct(
+                    truncate_operators(D, coll.base_basis, AE, m),
+                    coll.base_basis.truncate(m),
+                    init=X,
+                    channels=AE,
+                    steps=steps,
+                    smoothness=1.0,
+                    progress=False,
+                )
                 after.append(f"{1e4 * opnet.d_R(gt, X).mean():.3f}")
             seconds = (time.perf_counter() - t) / len(idx)
-            print(f"| {', '.join(f'{m}: {n}' for m, n in schedule)} | {' → '.join(after)} | {seconds:.2f} |", flush=True)
+            print(
+                f"| {', '.join(f'{m}: {n}' for m, n in schedule)} | {' → '.join(after)} | {seconds:.2f} |", flush=True
+            )
     return 0
 
 

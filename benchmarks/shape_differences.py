@@ -31,6 +31,7 @@ Run::
     .venv/bin/python benchmarks/shape_differences.py --quick    # smoke run (< 30 s)
     .venv/bin/python benchmarks/shape_differences.py --json results.json --profile
 """
+
 from __future__ import annotations
 
 import argparse
@@ -57,6 +58,7 @@ TARGET_THROUGHPUT = 200.0  # shapes/s, all three operators together
 
 # ---- data -------------------------------------------------------------------------------------------
 
+
 def make_shapes(base: opnet.Mesh, n: int, seed: int) -> np.ndarray:
     """``n`` smooth deformations ``(n, n_vertices, 3)`` of ``base``: a random bulge, then a random bend.
 
@@ -76,6 +78,7 @@ def make_shapes(base: opnet.Mesh, n: int, seed: int) -> np.ndarray:
 
 # ---- timing helpers -----------------------------------------------------------------------------------
 
+
 def best_of(fn, repeats: int) -> float:
     """Best wall time of ``repeats`` calls of ``fn`` (after the caller's warm-up)."""
     best = np.inf
@@ -94,8 +97,12 @@ def rel_diff(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def time_fast(base_basis, shapes, kinds, repeats, batch_size):
-    run = lambda: opnet.shape_differences(base_basis, shapes, kinds=kinds, batch_size=batch_size, progress=False)
-    opnet.shape_differences(base_basis, shapes[:batch_size], kinds=kinds, batch_size=batch_size, progress=False)  # warm-up
+    def run():
+        return opnet.shape_differences(base_basis, shapes, kinds=kinds, batch_size=batch_size, progress=False)
+
+    opnet.shape_differences(
+        base_basis, shapes[:batch_size], kinds=kinds, batch_size=batch_size, progress=False
+    )  # warm-up
     return best_of(run, repeats) / len(shapes)
 
 
@@ -132,6 +139,7 @@ def time_explicit(base_basis, base, shapes):
 
 
 # ---- pyFM -----------------------------------------------------------------------------------------------
+
 
 def import_pyfm():
     """pyFM's ``(area_SD, conformal_SD, version)``, or ``None`` and a note why not."""
@@ -171,6 +179,7 @@ def time_pyfm(fns, base_basis, fmaps, inner_loops=200, repeats=3):
                         area_SD(C)
                     if which in ("conformal", "both"):
                         conformal_SD(C, ev0, ev)
+
         return run
 
     per_shape = {}
@@ -181,6 +190,7 @@ def time_pyfm(fns, base_basis, fmaps, inner_loops=200, repeats=3):
 
 
 # ---- profiling ------------------------------------------------------------------------------------------
+
 
 def profile_fast(base_basis, shapes, batch_size, top=18):
     """cProfile of the fast path: its text report and the top functions by own time."""
@@ -198,6 +208,7 @@ def profile_fast(base_basis, shapes, batch_size, top=18):
 
 
 # ---- report ------------------------------------------------------------------------------------------------
+
 
 class OtherLoad:
     """CPU time used by *other* processes while the benchmark runs, as a fraction of all CPUs (Linux)."""
@@ -269,20 +280,29 @@ def markdown_table(rows):
     lines = [head, "|---|---|---:|---:|---:|---:|"]
     for r in rows:
         sp_ = "—" if r["speedup"] is None else f"{r['speedup']:,.0f}×" if r["speedup"] >= 10 else f"{r['speedup']:.2f}×"
-        rd = "—" if r["max_rel_diff"] is None else ("0 (reference)" if r["max_rel_diff"] == 0 else f"{r['max_rel_diff']:.1e}")
+        rd = (
+            "—"
+            if r["max_rel_diff"] is None
+            else ("0 (reference)" if r["max_rel_diff"] == 0 else f"{r['max_rel_diff']:.1e}")
+        )
         lines.append(
-            f"| {r['method']} | {r['operators']} | {fmt_rate(1 / r['s_per_shape'])} | {fmt_sec(r['s_per_shape'])} | {sp_} | {rd} |"
+            f"| {r['method']} | {r['operators']} | {fmt_rate(1 / r['s_per_shape'])} | "
+            f"{fmt_sec(r['s_per_shape'])} | {sp_} | {rd} |"
         )
     return "\n".join(lines)
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--quick", action="store_true", help="short smoke run (< 30 s): fewer shapes")
     ap.add_argument("--json", metavar="PATH", help="also write the results as JSON to PATH")
     ap.add_argument("--n-shapes", type=int, help="shapes for the fast path (default 500; 100 with --quick)")
     ap.add_argument("--n-explicit", type=int, help="shapes for the explicit formula (default 5; 3 with --quick)")
-    ap.add_argument("--preset", default="default", help="toy.capsule resolution preset (default 'default', ~1000 vertices)")
+    ap.add_argument(
+        "--preset", default="default", help="toy.capsule resolution preset (default 'default', ~1000 vertices)"
+    )
     ap.add_argument("--k", type=int, default=60, help="size of the base eigenbasis (default 60)")
     ap.add_argument("--repeats", type=int, default=3, help="repeats for the fast path; the best is kept (default 3)")
     ap.add_argument("--batch-size", type=int, default=64, help="batch_size passed to shape_differences (default 64)")
@@ -311,7 +331,8 @@ def main(argv=None):
 
     print(f"# Shape-difference benchmark{' (--quick)' if args.quick else ''}\n")
     print(
-        f"base: toy.capsule({args.preset!r}), {base.n_vertices} vertices, {base.n_faces} faces; base eigenbasis k = {args.k}; "
+        f"base: toy.capsule({args.preset!r}), {base.n_vertices} vertices, {base.n_faces} faces; "
+        f"base eigenbasis k = {args.k}; "
         f"fast path on {n_shapes} shapes (batch_size {args.batch_size}, best of {args.repeats}), "
         f"explicit formula on {n_explicit} shapes; seed {args.seed}\n",
         flush=True,
@@ -334,21 +355,25 @@ def main(argv=None):
     label.update({k: k for k in KINDS})
     for key in ("all", *KINDS):
         sl = slice(None) if key == "all" else KINDS.index(key)
-        rows.append({
-            "method": "opnet fast path `shape_differences`",
-            "operators": label[key],
-            "s_per_shape": fast[key],
-            "speedup": exp[key] / fast[key],
-            "max_rel_diff": rel_diff(D_fast[:, sl], D_exp[:, sl]),
-        })
+        rows.append(
+            {
+                "method": "opnet fast path `shape_differences`",
+                "operators": label[key],
+                "s_per_shape": fast[key],
+                "speedup": exp[key] / fast[key],
+                "max_rel_diff": rel_diff(D_fast[:, sl], D_exp[:, sl]),
+            }
+        )
     for key in ("all", *KINDS):
-        rows.append({
-            "method": "explicit: full eigh + `identity_fmap` + `shape_difference`",
-            "operators": label[key],
-            "s_per_shape": exp[key],
-            "speedup": 1.0,
-            "max_rel_diff": 0.0,
-        })
+        rows.append(
+            {
+                "method": "explicit: full eigh + `identity_fmap` + `shape_difference`",
+                "operators": label[key],
+                "s_per_shape": exp[key],
+                "speedup": 1.0,
+                "max_rel_diff": 0.0,
+            }
+        )
 
     # 4. pyFM
     pyfm = None
@@ -356,28 +381,34 @@ def main(argv=None):
         per, D_pyfm = time_pyfm(fns, base_basis, fmaps)
         pyfm = {"s_per_shape": per}
         for key, sl, name in (("area", 0, "area"), ("conformal", 1, "conformal")):
-            rows.append({
-                "method": f"pyFM `{name}_SD` (C, Λ given)",
-                "operators": name,
-                "s_per_shape": per[key],
-                "speedup": exp[name] / per[key],
-                "max_rel_diff": rel_diff(D_pyfm[:, sl], D_exp[:, KINDS.index(name)]),
-            })
+            rows.append(
+                {
+                    "method": f"pyFM `{name}_SD` (C, Λ given)",
+                    "operators": name,
+                    "s_per_shape": per[key],
+                    "speedup": exp[name] / per[key],
+                    "max_rel_diff": rel_diff(D_pyfm[:, sl], D_exp[:, KINDS.index(name)]),
+                }
+            )
         exp_ac = shared + stages["area"] + stages["conformal"]
-        rows.append({
-            "method": "pyFM `area_SD` + `conformal_SD` (C, Λ given)",
-            "operators": "area + conformal",
-            "s_per_shape": per["both"],
-            "speedup": exp_ac / per["both"],
-            "max_rel_diff": rel_diff(D_pyfm, D_exp[:, :2]),
-        })
-        rows.append({
-            "method": "pyFM `area_SD` + `conformal_SD` + full eigh + C",
-            "operators": "area + conformal",
-            "s_per_shape": per["both"] + shared,
-            "speedup": exp_ac / (per["both"] + shared),
-            "max_rel_diff": rel_diff(D_pyfm, D_exp[:, :2]),
-        })
+        rows.append(
+            {
+                "method": "pyFM `area_SD` + `conformal_SD` (C, Λ given)",
+                "operators": "area + conformal",
+                "s_per_shape": per["both"],
+                "speedup": exp_ac / per["both"],
+                "max_rel_diff": rel_diff(D_pyfm, D_exp[:, :2]),
+            }
+        )
+        rows.append(
+            {
+                "method": "pyFM `area_SD` + `conformal_SD` + full eigh + C",
+                "operators": "area + conformal",
+                "s_per_shape": per["both"] + shared,
+                "speedup": exp_ac / (per["both"] + shared),
+                "max_rel_diff": rel_diff(D_pyfm, D_exp[:, :2]),
+            }
+        )
 
     print(markdown_table(rows))
     print()
@@ -402,15 +433,21 @@ def main(argv=None):
     other = monitor.fraction()
     if other is not None:
         info["cpu_used_by_other_processes_during_run"] = f"{100 * other:.0f} %"
-        print(f"CPU time used by other processes during the run: {100 * other:.0f} % of all CPUs"
-              + (" — WARNING: contended, timings are pessimistic" if other > 0.1 else ""))
+        print(
+            f"CPU time used by other processes during the run: {100 * other:.0f} % of all CPUs"
+            + (" — WARNING: contended, timings are pessimistic" if other > 0.1 else "")
+        )
 
     # targets
     speedup_all = exp["all"] / fast["all"]
     rate_all = 1 / fast["all"]
     targets = {
         "speedup": {"value": speedup_all, "target": TARGET_SPEEDUP, "met": bool(speedup_all >= TARGET_SPEEDUP)},
-        "throughput_shapes_per_s": {"value": rate_all, "target": TARGET_THROUGHPUT, "met": bool(rate_all >= TARGET_THROUGHPUT)},
+        "throughput_shapes_per_s": {
+            "value": rate_all,
+            "target": TARGET_THROUGHPUT,
+            "met": bool(rate_all >= TARGET_THROUGHPUT),
+        },
     }
     print("\n## Targets\n")
     print(
@@ -419,7 +456,8 @@ def main(argv=None):
     )
     print(
         f"- fast path ≥ {TARGET_THROUGHPUT:.0f} shapes/s for all three operators together on "
-        f"{info['cpus_usable']} cores: {rate_all:,.1f} shapes/s → {'MET' if targets['throughput_shapes_per_s']['met'] else 'NOT MET'}"
+        f"{info['cpus_usable']} cores: {rate_all:,.1f} shapes/s → "
+        f"{'MET' if targets['throughput_shapes_per_s']['met'] else 'NOT MET'}"
     )
 
     # profiling

@@ -17,6 +17,7 @@ Run::
     .venv/bin/python benchmarks/torch_ops.py              # ~30 s on 2 idle cores
     .venv/bin/python benchmarks/torch_ops.py --quick
 """
+
 from __future__ import annotations
 
 import argparse
@@ -25,11 +26,11 @@ import sys
 
 import numpy as np
 import torch
+from shape_differences import OtherLoad, best_of, make_shapes
 
 import opnet
 from opnet.data import toy
 from opnet.torch_ops import ShapeDifferences
-from shape_differences import OtherLoad, best_of, make_shapes
 
 
 def main(argv=None):
@@ -62,36 +63,42 @@ def main(argv=None):
             module = ShapeDifferences(basis, device=dev)
             X = torch.tensor(shapes, dtype=dtype, device=dev)
             for mode in ("forward", "forward + backward"):
+
                 def run():
                     for s in range(0, n, args.batch_size):
                         if mode == "forward":
                             with torch.no_grad():
-                                module(X[s:s + args.batch_size])
+                                module(X[s : s + args.batch_size])
                         else:
-                            x = X[s:s + args.batch_size].clone().requires_grad_(True)
+                            x = X[s : s + args.batch_size].clone().requires_grad_(True)
                             module(x).sum().backward()
                     if dev == "cuda":
                         torch.cuda.synchronize()
 
                 run()
-                rows.append(("torch_ops `ShapeDifferences`", dev, str(dtype).split(".")[1], mode,
-                             best_of(run, repeats) / n))
+                rows.append(
+                    ("torch_ops `ShapeDifferences`", dev, str(dtype).split(".")[1], mode, best_of(run, repeats) / n)
+                )
             if dev == "cpu" and dtype == torch.float64:
                 with torch.no_grad():
                     out = module(X).numpy()
                 err = float(np.max(np.linalg.norm(out - ref, axis=(-2, -1)) / np.linalg.norm(ref, axis=(-2, -1))))
 
     print(f"# Differentiable shape differences{' (--quick)' if args.quick else ''}\n")
-    print(f"toy.capsule('default'): {base.n_vertices} vertices, k = {args.k}, {n} shapes, batch {args.batch_size}, "
-          f"best of {repeats}; all three operators together.\n")
+    print(
+        f"toy.capsule('default'): {base.n_vertices} vertices, k = {args.k}, {n} shapes, batch {args.batch_size}, "
+        f"best of {repeats}; all three operators together.\n"
+    )
     print("| method | device | dtype | pass | shapes/s | ratio to numpy forward |")
     print("|---|---|---|---|---:|---:|")
     for name, dev, dt, mode, t in rows:
         print(f"| {name} | {dev} | {dt} | {mode} | {1 / t:,.0f} | {t_np / t:.2f}× |")
     print(f"\nlargest relative difference of torch float64 from numpy (‖ΔD‖_F / ‖D‖_F): {err:.1e}")
     gpu = f"; GPU {torch.cuda.get_device_name()}" if torch.cuda.is_available() else ""
-    print(f"machine: {platform.processor() or platform.machine()}, torch {torch.__version__}, "
-          f"{torch.get_num_threads()} torch threads{gpu}")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, torch {torch.__version__}, "
+        f"{torch.get_num_threads()} torch threads{gpu}"
+    )
     other = monitor.fraction()
     if other is not None and other > 0.1:
         print(f"WARNING: other processes used {100 * other:.0f} % of the CPUs during the run; timings are pessimistic.")

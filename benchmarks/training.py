@@ -13,6 +13,7 @@ Run::
     .venv/bin/python benchmarks/training.py                      # throughput table, ~1 min
     .venv/bin/python benchmarks/training.py --scaling --preset quick --epochs 80 --seeds 0 1
 """
+
 from __future__ import annotations
 
 import argparse
@@ -52,8 +53,15 @@ def throughput(device: str, batch_sizes, threads, steps: int, n_vertices: int = 
                 if device == "cuda":
                     torch.cuda.synchronize()
                 best = min(best, time.perf_counter() - t0)
-            rows.append(dict(device=device, threads=t if device == "cpu" else None, batch=bs,
-                             samples_per_s=bs * steps / best, ms_per_step=1e3 * best / steps))
+            rows.append(
+                dict(
+                    device=device,
+                    threads=t if device == "cpu" else None,
+                    batch=bs,
+                    samples_per_s=bs * steps / best,
+                    ms_per_step=1e3 * best / steps,
+                )
+            )
     return rows
 
 
@@ -64,8 +72,9 @@ def scaling(preset: str, epochs: int, seeds, batch_size: int) -> None:
     for seed in seeds:
         best = {}
         for sub in (False, True):
-            _, h = opnet.train.fit(ds, epochs=epochs, batch_size=batch_size, seed=seed, subtract_identity=sub,
-                                   progress=False)
+            _, h = opnet.train.fit(
+                ds, epochs=epochs, batch_size=batch_size, seed=seed, subtract_identity=sub, progress=False
+            )
             best[sub] = min(e["val_d_R"] for e in h) * 1e4
         print(f"| {seed} | {best[False]:.3f} | {best[True]:.3f} | {best[False] / best[True]:.2f} |", flush=True)
 
@@ -87,7 +96,10 @@ def main() -> None:
         rows += throughput("cuda", args.batch_sizes + [128, 256], [1], 50)
     print("\n| device | threads | batch | samples/s | ms/step |\n|---|---:|---:|---:|---:|")
     for r in rows:
-        print(f"| {r['device']} | {r['threads'] or '–'} | {r['batch']} | {r['samples_per_s']:,.0f} | {r['ms_per_step']:.1f} |")
+        print(
+            f"| {r['device']} | {r['threads'] or '–'} | {r['batch']} | {r['samples_per_s']:,.0f} | "
+            f"{r['ms_per_step']:.1f} |"
+        )
     if args.scaling:
         scaling(args.preset, args.epochs, args.seeds, args.scaling_batch_size)
 

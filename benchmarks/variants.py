@@ -17,6 +17,7 @@ Run::
     .venv/bin/python benchmarks/variants.py --preset quick --out build/variants-quick     # ~10 min on 2 cores
     .venv/bin/python benchmarks/variants.py --preset default --out build/variants-default # ~1 h on 2 cores
 """
+
 from __future__ import annotations
 
 import argparse
@@ -45,13 +46,22 @@ def main(argv=None):
     coll = opnet.data.load_collection("humans", args.preset)
     rows = []
     for name in args.ideas:
-        _, hist = opnet.train.fit(coll, epochs=budget.epochs, batch_size=budget.batch_size, lr=budget.lr,
-                                  seed=args.seed, run_dir=f"{args.out}/{name}", **IDEAS[name])
+        _, hist = opnet.train.fit(
+            coll,
+            epochs=budget.epochs,
+            batch_size=budget.batch_size,
+            lr=budget.lr,
+            seed=args.seed,
+            run_dir=f"{args.out}/{name}",
+            **IDEAS[name],
+        )
         best = min(hist, key=lambda h: h["val_d_R"])
         rows.append((name, best["val_d_R"], best["epoch"], sum(h["seconds"] for h in hist)))
     ref = next((r[1] for r in rows if r[0] == "paper"), None)
-    print(f"\n# OperatorNet variants on val · preset {args.preset} ({budget.epochs} epochs, batch {budget.batch_size}, "
-          f"seed {args.seed})\n")
+    print(
+        f"\n# OperatorNet variants on val · preset {args.preset} ({budget.epochs} epochs, batch {budget.batch_size}, "
+        f"seed {args.seed})\n"
+    )
     print("| idea | best val d_R ×10⁻⁴ | epoch | train s | vs paper |")
     print("|---|---:|---:|---:|---:|")
     for name, val, epoch, secs in rows:

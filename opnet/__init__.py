@@ -24,11 +24,11 @@ Public API::
 The modules ``train``, ``evaluate`` (home of ``decode``), ``reproduce``, ``model``, ``torch_ops``, ``geometric``
 (home of ``reconstruct``), ``apps`` and ``widgets`` use torch or the notebook stack, so they load on first use.
 """
+
 from . import data
 from .algebra import analogy, interpolate, log_difference, relative_difference
 from .fmaps import FunctionalMap, fmap_from_p2p, fmap_from_soft_map, identity_fmap
 from .gram import gram_matrix, recover_embedding
-from .matching import SurfaceMap, compute_map, encode
 from .inner_products import (
     INNER_PRODUCTS,
     AreaInnerProduct,
@@ -37,6 +37,7 @@ from .inner_products import (
     InnerProduct,
     get_inner_product,
 )
+from .matching import SurfaceMap, compute_map, encode
 from .mesh import Mesh, MeshError, MeshWarning, load_mesh
 from .metrics import d_E, d_R, d_V, kabsch, mesh_volume, rigid_align
 from .shape_difference import KINDS, distortion_function, pinv_psd, shape_difference, shape_differences
@@ -46,18 +47,57 @@ __version__ = "0.1.0"
 
 __all__ = [
     "data",
-    "Mesh", "MeshError", "MeshWarning", "load_mesh",
-    "Eigenbasis", "eigenbasis", "vertex_areas", "cotan_edge_weights",
-    "FunctionalMap", "fmap_from_p2p", "fmap_from_soft_map", "identity_fmap",
-    "InnerProduct", "AreaInnerProduct", "ConformalInnerProduct", "ExtrinsicInnerProduct",
-    "INNER_PRODUCTS", "get_inner_product",
-    "KINDS", "shape_difference", "shape_differences", "distortion_function", "pinv_psd",
-    "gram_matrix", "recover_embedding",
-    "matching", "SurfaceMap", "compute_map", "encode", "decode",
-    "interpolate", "analogy", "relative_difference", "log_difference",
-    "kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume",
-    "OperatorNet", "rigid_alignment_loss", "reconstruct", "model", "train", "evaluate", "reproduce", "torch_ops",
-    "geometric", "apps", "widgets",
+    "Mesh",
+    "MeshError",
+    "MeshWarning",
+    "load_mesh",
+    "Eigenbasis",
+    "eigenbasis",
+    "vertex_areas",
+    "cotan_edge_weights",
+    "FunctionalMap",
+    "fmap_from_p2p",
+    "fmap_from_soft_map",
+    "identity_fmap",
+    "InnerProduct",
+    "AreaInnerProduct",
+    "ConformalInnerProduct",
+    "ExtrinsicInnerProduct",
+    "INNER_PRODUCTS",
+    "get_inner_product",
+    "KINDS",
+    "shape_difference",
+    "shape_differences",
+    "distortion_function",
+    "pinv_psd",
+    "gram_matrix",
+    "recover_embedding",
+    "matching",
+    "SurfaceMap",
+    "compute_map",
+    "encode",
+    "decode",
+    "interpolate",
+    "analogy",
+    "relative_difference",
+    "log_difference",
+    "kabsch",
+    "rigid_align",
+    "d_R",
+    "d_V",
+    "d_E",
+    "mesh_volume",
+    "OperatorNet",
+    "rigid_alignment_loss",
+    "reconstruct",
+    "model",
+    "train",
+    "evaluate",
+    "reproduce",
+    "torch_ops",
+    "geometric",
+    "apps",
+    "widgets",
 ]
 
 _TORCH_MODULES = ("model", "train", "evaluate", "reproduce", "torch_ops", "geometric", "apps", "widgets")

@@ -3,6 +3,7 @@
 Every message names the argument, what it got and what to do, so that bad input is answered at the call the
 user made rather than deep inside numpy, scipy or torch. The checks are O(size) and run once per call.
 """
+
 from __future__ import annotations
 
 import math
@@ -19,7 +20,8 @@ _PACKAGE = str(Path(__file__).resolve().parent)
 
 def warn_user(message: str, category=UserWarning) -> None:
     """``warnings.warn`` attributed to the first caller outside opnet: the line of the user's code that made
-    the call, however deep inside opnet the problem was found."""
+    the call, however deep inside opnet the problem was found.
+    """
     level, frame = 2, sys._getframe(1)  # stacklevel 1 is this function, 2 its caller
     while frame is not None and str(Path(frame.f_code.co_filename).resolve()).startswith(_PACKAGE):
         level, frame = level + 1, frame.f_back
@@ -81,8 +83,9 @@ def real_array(name: str, value, shape=None, *, finite: bool = True, dtype=np.fl
     except (ValueError, TypeError) as exc:  # ragged lists and the like
         raise ValueError(f"{name} could not be read as an array ({exc}); pass a rectangular real array.") from None
     if arr.dtype.kind == "c":
-        raise TypeError(f"{name} holds complex numbers; pass a real array{expected} (np.real(x) if the imaginary part "
-                        "is zero).")
+        raise TypeError(
+            f"{name} holds complex numbers; pass a real array{expected} (np.real(x) if the imaginary part is zero)."
+        )
     if arr.dtype.kind not in "fiu":
         raise TypeError(f"{name} must be a real array{expected}, got {arr.dtype} values ({describe(value)}).")
     if shape is not None and not _fits(arr.shape, shape):
@@ -91,18 +94,22 @@ def real_array(name: str, value, shape=None, *, finite: bool = True, dtype=np.fl
         if arr.ndim == 0:
             raise ValueError(f"{name} is {arr.item()}; pass a finite number.")
         bad = np.argwhere(~np.isfinite(arr))
-        raise ValueError(f"{name} contains {len(bad)} NaN or infinite values (first at index {tuple(bad[0].tolist())}); "
-                         "remove or repair them.")
+        raise ValueError(
+            f"{name} contains {len(bad)} NaN or infinite values (first at index {tuple(bad[0].tolist())}); "
+            "remove or repair them."
+        )
     with np.errstate(over="ignore"):
         out = arr.astype(dtype, copy=False)
     if finite and out is not arr and out.dtype.kind == "f" and not np.isfinite(out).all():
-        raise ValueError(f"{name} holds values beyond the range of {np.dtype(dtype)} (largest magnitude "
-                         f"{np.abs(arr).max():.3g}); rescale them.")
+        raise ValueError(
+            f"{name} holds values beyond the range of {np.dtype(dtype)} (largest magnitude "
+            f"{np.abs(arr).max():.3g}); rescale them."
+        )
     return out
 
 
 def _fits(actual: tuple, shape: tuple) -> bool:
     if shape and shape[0] is Ellipsis:
         shape = shape[1:]
-        return len(actual) >= len(shape) and _fits(actual[len(actual) - len(shape):], shape)
+        return len(actual) >= len(shape) and _fits(actual[len(actual) - len(shape) :], shape)
     return len(actual) == len(shape) and all(not is_integer(s) or a == s for a, s in zip(actual, shape))

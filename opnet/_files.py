@@ -1,4 +1,5 @@
 """Atomic file writes and the clean-up of temporary files left by killed processes (shared by data and training)."""
+
 from __future__ import annotations
 
 import os
@@ -14,7 +15,8 @@ def tmp_name(path: Path, suffix: str = "") -> Path:
 
 def atomic_write(path, write) -> None:
     """Write ``path`` through ``write(binary_file)`` into a temporary file, fsync, rename over ``path``, fsync the
-    folder: a reader (or a later run after a crash or SIGKILL) sees the old file or the new one, never a part."""
+    folder: a reader (or a later run after a crash or SIGKILL) sees the old file or the new one, never a part.
+    """
     path = Path(path)
     tmp = tmp_name(path)
     try:

@@ -13,6 +13,7 @@ eigenvalues and a real logarithm. ``x = Qᵀ D Z`` is zero for exact functional 
 constant function maps to a constant) and small for computed ones.
 :func:`interpolate` interpolates ``B`` multiplicatively and ``x`` linearly.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -31,7 +32,7 @@ def _as_operator(D, name: str) -> np.ndarray:
 
 
 def _left_kernel_split(Ds, rtol: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
-    """``(Q, Z)``: ``Z`` spans the common left kernel (``Zᵀ D = 0`` for all ``Ds``), ``Q`` its orthonormal complement."""
+    """``(Q, Z)``: ``Z`` spans the common left kernel (``Zᵀ D = 0`` for all ``Ds``), ``Q`` its complement."""
     stacked = np.concatenate([D.T for D in Ds], axis=0)  # z with Dᵀ z = 0 for every D
     _, s, Vt = np.linalg.svd(stacked)
     rank = int(np.sum(s > rtol * s.max())) if s.size and s.max() > 0 else 0
@@ -91,7 +92,9 @@ def interpolate(D0, D1, t, scheme: str = "multiplicative") -> np.ndarray:
         else:
             L0, L1 = (_log_positive(Q.T @ D @ Q) for D in (D0, D1))
             x0, x1 = Q.T @ D0 @ Z, Q.T @ D1 @ Z
-            out = np.stack([Q @ (scipy.linalg.expm((1 - s) * L0 + s * L1) @ Q.T + ((1 - s) * x0 + s * x1) @ Z.T) for s in ts])
+            out = np.stack(
+                [Q @ (scipy.linalg.expm((1 - s) * L0 + s * L1) @ Q.T + ((1 - s) * x0 + s * x1) @ Z.T) for s in ts]
+            )
     else:
         raise ValueError(f"scheme must be 'multiplicative' or 'linear', got {scheme!r}.")
     return out[0] if np.ndim(t) == 0 else out

@@ -28,6 +28,7 @@ parameters of every shape, so the benchmark can ask for shapes they do not hold 
 (:func:`analogy_benchmark`, :func:`interpolation_benchmark`). Subjects are drawn from ``test_subjects`` and
 poses from the ``test`` sequences only.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -42,9 +43,22 @@ from .evaluate import _OperatorIndex, _select, predict, shape_errors, summarize
 from .metrics import d_E, d_R, rigid_align
 from .shape_difference import KINDS, shape_differences
 
-__all__ = ["ShapeAlgebra", "operatornet_algebra", "pointnet_algebra", "nearest_neighbour_algebra", "SCHEMES",
-           "Quadruples", "analogy_quadruples", "analogy_benchmark", "Paths", "interpolation_paths",
-           "interpolation_benchmark", "path_metrics", "ANALOGY_KINDS", "PATH_KINDS"]
+__all__ = [
+    "ShapeAlgebra",
+    "operatornet_algebra",
+    "pointnet_algebra",
+    "nearest_neighbour_algebra",
+    "SCHEMES",
+    "Quadruples",
+    "analogy_quadruples",
+    "analogy_benchmark",
+    "Paths",
+    "interpolation_paths",
+    "interpolation_benchmark",
+    "path_metrics",
+    "ANALOGY_KINDS",
+    "PATH_KINDS",
+]
 
 SCHEMES = ("multiplicative", "linear")
 #: Analogy benchmark kinds: "pose" (a, p) : (a, q) :: (b, p) : (b, q); "body" (a, p) : (b, p) :: (a, q) : (b, q).
@@ -83,7 +97,7 @@ class ShapeAlgebra:
         check_int("max_shapes", self.max_shapes, none_ok=True)
 
     def shapes(self, shapes) -> np.ndarray:
-        """Vertices ``(B, n, 3)`` float64 of indices into the collection or of vertex arrays ``(n, 3)`` / ``(B, n, 3)``."""
+        """Vertices ``(B, n, 3)`` float64 of indices into the collection or of vertices ``(n, 3)``/``(B, n, 3)``."""
         return _as_shapes(self.collection, shapes)
 
     def reconstruct(self, shapes) -> np.ndarray:
@@ -97,7 +111,7 @@ class ShapeAlgebra:
         return rigid_align(X, np.broadcast_to(base, X.shape))
 
     def interpolate(self, start, end, t=np.linspace(0, 1, 11)) -> np.ndarray:
-        """Shapes ``(len(t), n, 3)`` from ``start`` (``t = 0``) to ``end`` (``t = 1``); one shape each (index or ``(n, 3)``)."""
+        """Shapes ``(len(t), n, 3)`` from ``start`` (``t = 0``) to ``end`` (``t = 1``), each an index or ``(n, 3)``."""
         t = np.atleast_1d(real_array("t", t))
         if t.ndim != 1 or len(t) == 0:
             raise ValueError(f"t must be a number or a non-empty 1-d array, got shape {np.shape(t)}.")
@@ -120,7 +134,9 @@ class ShapeAlgebra:
         if self.space == "latent" or self.scheme == "linear":
             RX = RC + RB - RA
         else:
-            RX = np.array([[operator_analogy(a, b, c) for a, b, c in zip(qa, qb, qc)] for qa, qb, qc in zip(RA, RB, RC)])
+            RX = np.array(
+                [[operator_analogy(a, b, c) for a, b, c in zip(qa, qb, qc)] for qa, qb, qc in zip(RA, RB, RC)]
+            )
         X = self._decode(RX)
         return X[0] if single else X
 
@@ -131,17 +147,24 @@ def _is_single(x) -> bool:
 
 def _as_shapes(collection, shapes) -> np.ndarray:
     n = collection.vertices.shape[1]
-    if is_integer(shapes) or (isinstance(shapes, (list, tuple)) and shapes and all(map(is_integer, shapes))) or (
-            isinstance(shapes, np.ndarray) and shapes.ndim == 1 and shapes.dtype.kind in "iu"):
+    if (
+        is_integer(shapes)
+        or (isinstance(shapes, (list, tuple)) and shapes and all(map(is_integer, shapes)))
+        or (isinstance(shapes, np.ndarray) and shapes.ndim == 1 and shapes.dtype.kind in "iu")
+    ):
         idx = np.atleast_1d(np.asarray(shapes, dtype=np.int64))
         if idx.min() < -len(collection) or idx.max() >= len(collection):
-            raise IndexError(f"shape index out of range: the collection has {len(collection)} shapes, got {idx.tolist()}.")
+            raise IndexError(
+                f"shape index out of range: the collection has {len(collection)} shapes, got {idx.tolist()}."
+            )
         return collection.vertices[idx].astype(np.float64)
     V = real_array("shapes", shapes, hint=f"(indices into the collection, or vertices (n, 3) / (B, n, 3), n = {n})")
     V = V[None] if V.ndim == 2 else V
     if V.ndim != 3 or V.shape[1:] != (n, 3) or len(V) == 0:
-        raise ValueError(f"shapes must be vertices (n, 3) or (B, n, 3) on the collection's mesh (n = {n}), or indices "
-                         f"into the collection; got an array of shape {np.shape(shapes)}.")
+        raise ValueError(
+            f"shapes must be vertices (n, 3) or (B, n, 3) on the collection's mesh (n = {n}), or indices "
+            f"into the collection; got an array of shape {np.shape(shapes)}."
+        )
     return V
 
 
@@ -150,8 +173,15 @@ def _operators(collection):
     return lambda V: shape_differences(basis, V, KINDS, progress=False)
 
 
-def operatornet_algebra(net, collection, *, scheme: str = "multiplicative", refine: dict | None = None,
-                        max_shapes: int | None = None, name: str | None = None) -> ShapeAlgebra:
+def operatornet_algebra(
+    net,
+    collection,
+    *,
+    scheme: str = "multiplicative",
+    refine: dict | None = None,
+    max_shapes: int | None = None,
+    name: str | None = None,
+) -> ShapeAlgebra:
     """Shapes → their operators → the operator algebra (``scheme``) → a trained OperatorNet → shapes.
 
     ``refine``: options of :func:`opnet.reconstruct` (e.g. ``dict(channels=("area", "extrinsic"), steps=300)``):
@@ -160,12 +190,21 @@ def operatornet_algebra(net, collection, *, scheme: str = "multiplicative", refi
     with ``" + refinement"``.
     """
     if not hasattr(net, "channels"):
-        raise TypeError(f"operatornet_algebra needs a trained OperatorNet, got a {type(net).__name__} (for the PointNet "
-                        "autoencoder use pointnet_algebra).")
+        raise TypeError(
+            f"operatornet_algebra needs a trained OperatorNet, got a {type(net).__name__} (for the PointNet "
+            "autoencoder use pointnet_algebra)."
+        )
     chans = _select(net.channels)
     base_name = name or f"OperatorNet ({'mult.' if scheme == 'multiplicative' else 'linear'})"
-    plain = ShapeAlgebra(base_name, collection, _operators(collection), lambda R: predict(net, R[:, chans]),
-                         "operators", scheme, max_shapes if refine is None else None)
+    plain = ShapeAlgebra(
+        base_name,
+        collection,
+        _operators(collection),
+        lambda R: predict(net, R[:, chans]),
+        "operators",
+        scheme,
+        max_shapes if refine is None else None,
+    )
     if refine is None:
         return plain
     from .geometric import reconstruct
@@ -173,16 +212,26 @@ def operatornet_algebra(net, collection, *, scheme: str = "multiplicative", refi
 
     options = dict(refine)
     if {"init", "progress"} & set(options):
-        raise ValueError(f"refine= sets options of opnet.reconstruct other than init and progress (the decoded "
-                         f"shape is the start; no bar per call), got {sorted({'init', 'progress'} & set(options))}.")
+        raise ValueError(
+            f"refine= sets options of opnet.reconstruct other than init and progress (the decoded "
+            f"shape is the start; no bar per call), got {sorted({'init', 'progress'} & set(options))}."
+        )
     options["channels"] = parse_channels(options.get("channels", KINDS))
     ref_chans = _select(options["channels"])
 
     def decode(R):
         return reconstruct(R[:, ref_chans], collection.base_basis, init=plain.decode(R), progress=False, **options)
 
-    return ShapeAlgebra(f"{base_name} + refinement" if name is None else name, collection, plain.encode, decode,
-                        "operators", scheme, max_shapes, plain)
+    return ShapeAlgebra(
+        f"{base_name} + refinement" if name is None else name,
+        collection,
+        plain.encode,
+        decode,
+        "operators",
+        scheme,
+        max_shapes,
+        plain,
+    )
 
 
 def pointnet_algebra(net, collection, *, name: str = "PointNet AE") -> ShapeAlgebra:
@@ -190,8 +239,10 @@ def pointnet_algebra(net, collection, *, name: str = "PointNet AE") -> ShapeAlge
     import torch
 
     if not (hasattr(net, "encode") and hasattr(net, "decode")):
-        raise TypeError(f"pointnet_algebra needs a trained PointNetAutoencoder (encode and decode), got a "
-                        f"{type(net).__name__} (for OperatorNet use operatornet_algebra).")
+        raise TypeError(
+            f"pointnet_algebra needs a trained PointNetAutoencoder (encode and decode), got a "
+            f"{type(net).__name__} (for OperatorNet use operatornet_algebra)."
+        )
     device = next(net.parameters()).device
 
     def run(f, x):
@@ -202,14 +253,22 @@ def pointnet_algebra(net, collection, *, name: str = "PointNet AE") -> ShapeAlge
     return ShapeAlgebra(name, collection, lambda V: run(net.encode, V), lambda Z: run(net.decode, Z), "latent")
 
 
-def nearest_neighbour_algebra(collection, channels=KINDS, *, scheme: str = "multiplicative",
-                              name: str | None = None) -> ShapeAlgebra:
+def nearest_neighbour_algebra(
+    collection, channels=KINDS, *, scheme: str = "multiplicative", name: str | None = None
+) -> ShapeAlgebra:
     """Operators combined by the algebra (``scheme``), then the ``train`` shape with the nearest operators of
-    ``channels`` (Frobenius) is returned: the paper's NN, which can only answer with shapes it has seen."""
+    ``channels`` (Frobenius) is returned: the paper's NN, which can only answer with shapes it has seen.
+    """
     index = _OperatorIndex(collection, tuple(channels))
     chans = _select(tuple(channels))
-    return ShapeAlgebra(name or "Nearest neighbour", collection, _operators(collection),
-                        lambda R: collection.vertices[index.nearest(R[:, chans])].astype(np.float64), "operators", scheme)
+    return ShapeAlgebra(
+        name or "Nearest neighbour",
+        collection,
+        _operators(collection),
+        lambda R: collection.vertices[index.nearest(R[:, chans])].astype(np.float64),
+        "operators",
+        scheme,
+    )
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -224,8 +283,10 @@ def _test_pool(collection):
     subj_idx = collection.indices("test_subjects")
     pose_idx = collection.indices("test")
     if len(subj_idx) == 0 or len(pose_idx) == 0:
-        raise ValueError("the ground-truth benchmarks draw subjects from 'test_subjects' and poses from 'test'; this "
-                         "collection has none of one of them.")
+        raise ValueError(
+            "the ground-truth benchmarks draw subjects from 'test_subjects' and poses from 'test'; this "
+            "collection has none of one of them."
+        )
     subjects = np.unique(collection.params["phenotypes"][subj_idx].astype(np.float64), axis=0)
     return subjects, pose_idx, collection.subcollection[pose_idx]
 
@@ -235,7 +296,8 @@ class Quadruples:
     """Analogy questions with their answers: ``A : B :: C : X``, vertices ``(Q, n, 3)`` each, and their ``kind``.
 
     ``phenotypes`` ``(Q, 2, 6)``: the subjects ``a``, ``b`` of each question; ``poses`` ``(Q, 2)``: the collection
-    indices of the ``test`` shapes whose poses are ``p``, ``q`` (see :func:`analogy_quadruples` for the roles)."""
+    indices of the ``test`` shapes whose poses are ``p``, ``q`` (see :func:`analogy_quadruples` for the roles).
+    """
 
     kind: str
     A: np.ndarray
@@ -269,8 +331,10 @@ def analogy_quadruples(collection, kind: str = "pose", n: int = 100, *, seed: in
     check_int("n", n)
     subjects, pose_idx, sequences = _test_pool(collection)
     if len(subjects) < 2 or len(set(sequences)) < 2:
-        raise ValueError(f"analogies need two unseen subjects and two test sequences; this collection has "
-                         f"{len(subjects)} and {len(set(sequences))}: use a larger preset.")
+        raise ValueError(
+            f"analogies need two unseen subjects and two test sequences; this collection has "
+            f"{len(subjects)} and {len(set(sequences))}: use a larger preset."
+        )
     rng = np.random.default_rng([seed, ANALOGY_KINDS.index(kind)])  # each kind its own draws
     a, b, p, q = [], [], [], []
     while len(a) < n:
@@ -282,8 +346,10 @@ def analogy_quadruples(collection, kind: str = "pose", n: int = 100, *, seed: in
     phen = np.concatenate([subjects[a], subjects[a], subjects[b], subjects[b]])
     ctrl = np.concatenate([controls[p], controls[q], controls[p], controls[q]])
     ap, aq, bp, bq = np.split(generate_shapes(collection, phen, ctrl), 4)
-    labels = [f"subjects {i}/{j}, poses {collection.subcollection[u]}#{u}/{collection.subcollection[v]}#{v}"
-              for i, j, u, v in zip(a, b, p, q)]
+    labels = [
+        f"subjects {i}/{j}, poses {collection.subcollection[u]}#{u}/{collection.subcollection[v]}#{v}"
+        for i, j, u, v in zip(a, b, p, q)
+    ]
     who = dict(labels=labels, phenotypes=np.stack([subjects[a], subjects[b]], axis=1), poses=np.stack([p, q], axis=1))
     if kind == "pose":
         return Quadruples(kind, ap, aq, bp, bq, **who)
@@ -293,7 +359,8 @@ def analogy_quadruples(collection, kind: str = "pose", n: int = 100, *, seed: in
 @dataclass
 class Paths:
     """Interpolation paths with their ground truth: ``truth`` ``(P, T, n, 3)`` at parameters ``t`` ``(T,)``;
-    ``truth[:, 0]`` and ``truth[:, -1]`` are the endpoints."""
+    ``truth[:, 0]`` and ``truth[:, -1]`` are the endpoints.
+    """
 
     kind: str
     t: np.ndarray
@@ -304,8 +371,7 @@ class Paths:
         return len(self.truth)
 
 
-def interpolation_paths(collection, kind: str = "pose", n_paths: int = 10, steps: int = 11, *,
-                        seed: int = 0) -> Paths:
+def interpolation_paths(collection, kind: str = "pose", n_paths: int = 10, steps: int = 11, *, seed: int = 0) -> Paths:
     """``n_paths`` paths of ``steps`` shapes with the generator's true in-between shapes.
 
     - ``kind="pose"``: an unseen subject (``test_subjects``, drawn by ``seed``) moving from the first pose of a
@@ -408,10 +474,12 @@ def path_metrics(path, truth, faces) -> dict:
     nearer = np.where(np.arange(T) <= (T - 1) / 2, 0, T - 1)
     jumps = np.sqrt(d_R(path[:-1], path[1:]))
     inner = slice(1, T - 1) if T > 2 else slice(0, T)
-    return dict(endpoint_d_R=float(np.mean(d_R(truth[[0, -1]], path[[0, -1]]))),
-                distortion=float(np.max(d_E(truth[nearer], path, faces))),
-                smoothness=float(jumps.max() / jumps.sum()) if jumps.sum() > 1e-9 * size else float("nan"),
-                d_R_truth=float(np.mean(d_R(truth[inner], path[inner]))))
+    return dict(
+        endpoint_d_R=float(np.mean(d_R(truth[[0, -1]], path[[0, -1]]))),
+        distortion=float(np.max(d_E(truth[nearer], path, faces))),
+        smoothness=float(jumps.max() / jumps.sum()) if jumps.sum() > 1e-9 * size else float("nan"),
+        d_R_truth=float(np.mean(d_R(truth[inner], path[inner]))),
+    )
 
 
 def interpolation_benchmark(collection, methods, paths, *, progress: bool | None = None) -> list[dict]:

@@ -20,6 +20,7 @@ Metrics per shape (:func:`shape_errors`): ``d_R`` (eq. 9, length², reported ×1
 ``d_V`` (relative volume error) and ``d_E`` (mean relative edge-length error); rows hold their means and
 medians.
 """
+
 from __future__ import annotations
 
 import time
@@ -34,9 +35,26 @@ from .mesh import edge_face_counts
 from .metrics import d_E, d_R, d_V, rigid_align
 from .shape_difference import KINDS
 
-__all__ = ["TEST_SETS", "Method", "decode", "test_set_indices", "channel_label", "predict", "operatornet_method", "pointnet_method",
-           "nearest_neighbour", "nearest_neighbour_method", "base_shape_method", "geometric_method", "refined_method",
-           "shape_errors", "summarize", "vertex_errors", "evenly_spaced", "evaluate"]
+__all__ = [
+    "TEST_SETS",
+    "Method",
+    "decode",
+    "test_set_indices",
+    "channel_label",
+    "predict",
+    "operatornet_method",
+    "pointnet_method",
+    "nearest_neighbour",
+    "nearest_neighbour_method",
+    "base_shape_method",
+    "geometric_method",
+    "refined_method",
+    "shape_errors",
+    "summarize",
+    "vertex_errors",
+    "evenly_spaced",
+    "evaluate",
+]
 
 TEST_SETS = ("eval_subset", "test", "test_subjects")
 _LABELS = {KINDS: "Int+Ext", ("area", "conformal"): "Int", ("extrinsic",): "Ext"}
@@ -44,7 +62,8 @@ _LABELS = {KINDS: "Int+Ext", ("area", "conformal"): "Int", ("extrinsic",): "Ext"
 
 def channel_label(channels) -> str:
     """The paper's name of an input combination: ``Int+Ext`` (all three), ``Int`` (area + conformal),
-    ``Ext`` (extrinsic), else the ablation's short name (``Area``, ``Conf``, ``A+E``, ``A+C``, ``E+C``)."""
+    ``Ext`` (extrinsic), else the ablation's short name (``Area``, ``Conf``, ``A+E``, ``A+C``, ``E+C``).
+    """
     from .train import CHANNEL_SETS, parse_channels
 
     channels = parse_channels(channels)
@@ -85,7 +104,8 @@ def predict(net, operators, *, batch_size: int = 256) -> np.ndarray:
     """Run a network on its inputs in batches, without gradient → vertices ``(N, n, 3)`` float64.
 
     ``operators``: ``(N, C, k, k)`` (the network's channels, in its order) for OperatorNet, coordinates
-    ``(N, m, 3)`` for the PointNet autoencoder."""
+    ``(N, m, 3)`` for the PointNet autoencoder.
+    """
     check_int("batch_size", batch_size)
     return _predict(net, real_array("operators", operators, dtype=np.float32), batch_size)
 
@@ -99,7 +119,7 @@ def _predict(net, operators: np.ndarray, batch_size: int = 256) -> np.ndarray:
     out = []
     with torch.no_grad():
         for s in range(0, len(operators), batch_size):
-            x = torch.as_tensor(operators[s:s + batch_size], device=device)
+            x = torch.as_tensor(operators[s : s + batch_size], device=device)
             out.append(net(x).double().cpu().numpy())
     return np.concatenate(out) if out else np.zeros((0, net.n_vertices, 3))
 
@@ -119,12 +139,16 @@ def decode(net, operators, kinds=KINDS) -> np.ndarray:
     single = ops.ndim == 3
     batch = ops[None] if single else ops
     if batch.ndim != 4 or batch.shape[1:] != (len(kinds), net.k, net.k):
-        raise ValueError(f"operators must be (C, k, k) or (B, C, k, k) with C = {len(kinds)} channels {kinds} and "
-                         f"k = {net.k} (the network's), got shape {ops.shape}.")
+        raise ValueError(
+            f"operators must be (C, k, k) or (B, C, k, k) with C = {len(kinds)} channels {kinds} and "
+            f"k = {net.k} (the network's), got shape {ops.shape}."
+        )
     missing = [c for c in net.channels if c not in kinds]
     if missing:
-        raise ValueError(f"the network reads {missing}, which the operators (channels {kinds}) do not hold; "
-                         "encode them with kinds=net.channels or all of opnet.KINDS.")
+        raise ValueError(
+            f"the network reads {missing}, which the operators (channels {kinds}) do not hold; "
+            "encode them with kinds=net.channels or all of opnet.KINDS."
+        )
     out = _predict(net, batch[:, [kinds.index(c) for c in net.channels]].astype(np.float32))
     return out[0] if single else out
 
@@ -158,7 +182,9 @@ class _OperatorIndex:
         """Nearest ``train`` shape of each of the collection's shapes ``indices``."""
         out = np.empty(len(indices), dtype=np.int64)
         for s in range(0, len(indices), chunk):
-            out[s:s + chunk] = self.nearest(self.collection.operators[np.asarray(indices[s:s + chunk])][:, self.chans])
+            out[s : s + chunk] = self.nearest(
+                self.collection.operators[np.asarray(indices[s : s + chunk])][:, self.chans]
+            )
         return out
 
     def nearest(self, operators) -> np.ndarray:
@@ -195,15 +221,23 @@ def geometric_method(collection, channels=KINDS, *, max_shapes: int | None = Non
 
     ``options`` go to :func:`opnet.reconstruct` (``steps``, ``smoothness``, ...).
     """
-    return refined_method(base_shape_method(collection), collection, channels, max_shapes=max_shapes,
-                          name=f"Geometric ({channel_label(channels)})", **options)
+    return refined_method(
+        base_shape_method(collection),
+        collection,
+        channels,
+        max_shapes=max_shapes,
+        name=f"Geometric ({channel_label(channels)})",
+        **options,
+    )
 
 
-def refined_method(method: Method, collection, channels=KINDS, *, max_shapes: int | None = None,
-                   name: str | None = None, **options) -> Method:
+def refined_method(
+    method: Method, collection, channels=KINDS, *, max_shapes: int | None = None, name: str | None = None, **options
+) -> Method:
     """``method`` followed by :func:`opnet.reconstruct` from its output: its vertices move until their operators
     (``channels``) match the input's. ``options`` go to :func:`opnet.reconstruct`. Its rows also hold
-    ``d_R_before``, the mean ``d_R`` of ``method`` on the same shapes. ``name``: default ``"<method> + refinement"``."""
+    ``d_R_before``, the mean ``d_R`` of ``method`` on the same shapes. ``name``: default ``"<method> + refinement"``.
+    """
     from .geometric import reconstruct
 
     channels = tuple(channels)
@@ -212,8 +246,14 @@ def refined_method(method: Method, collection, channels=KINDS, *, max_shapes: in
     def run(idx):
         init = method.reconstruct(idx)
         out.info["d_R_before"] = float(np.mean(d_R(collection.vertices[idx], init)))  # on the same shapes
-        return reconstruct(collection.operators[idx][:, chans], collection.base_basis, init=init, channels=channels,
-                           progress=False, **options)
+        return reconstruct(
+            collection.operators[idx][:, chans],
+            collection.base_basis,
+            init=init,
+            channels=channels,
+            progress=False,
+            **options,
+        )
 
     out = Method(name or f"{method.name} + refinement", run, channels, method.depth, max_shapes=max_shapes)
     return out
@@ -228,7 +268,7 @@ def shape_errors(gt, recon, faces, *, batch_size: int = 256) -> dict:
     closed = bool(np.all(edge_face_counts(np.asarray(faces))[1] == 2))
     out = {"d_R": [], "d_V": [], "d_E": []}
     for s in range(0, len(gt), batch_size):
-        g, r = gt[s:s + batch_size], recon[s:s + batch_size]
+        g, r = gt[s : s + batch_size], recon[s : s + batch_size]
         out["d_R"].append(d_R(g, r))
         out["d_V"].append(d_V(g, r, faces) if closed else np.full(len(g), np.nan))
         out["d_E"].append(d_E(g, r, faces))
@@ -275,7 +315,13 @@ def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = N
             recon = m.reconstruct(idx)
             seconds = (time.perf_counter() - start) / len(idx)
             err = shape_errors(collection.vertices[idx], recon, collection.faces)
-            row = dict(method=m.name, channels=",".join(m.channels), depth=m.depth, split=ts, n_shapes=int(len(idx)),
-                       seconds_per_shape=seconds)
+            row = dict(
+                method=m.name,
+                channels=",".join(m.channels),
+                depth=m.depth,
+                split=ts,
+                n_shapes=int(len(idx)),
+                seconds_per_shape=seconds,
+            )
             rows.append({**row, **summarize(err), **m.info, **(extra or {})})
     return rows

@@ -5,6 +5,7 @@ coefficients of a function on the base ``S_0`` to those of the corresponding fun
 ``S_i``. ``Π`` comes from a vertex-to-vertex map (``T: S_i → S_0``), a soft map (a
 row-stochastic ``n_i × n_0`` matrix), or the identity for meshes in 1-1 correspondence.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -31,8 +32,10 @@ class FunctionalMap:
         shape = (self.target.k, self.source.k)
         matrix = real_array("matrix", self.matrix)
         if matrix.shape != shape:
-            raise ValueError(f"a functional map from this source to this target must be (k_target, k_source) = {shape}, "
-                             f"got {matrix.shape}.")
+            raise ValueError(
+                f"a functional map from this source to this target must be (k_target, k_source) = {shape}, "
+                f"got {matrix.shape}."
+            )
         object.__setattr__(self, "matrix", matrix)
 
     def transfer(self, coeffs: np.ndarray) -> np.ndarray:
@@ -60,7 +63,9 @@ def fmap_from_p2p(source: Eigenbasis, target: Eigenbasis, p2p) -> FunctionalMap:
             f"got {p2p.dtype} array of shape {p2p.shape}."
         )
     if p2p.min() < 0 or p2p.max() >= n_s:
-        raise ValueError(f"p2p values must be source vertex indices in [0, {n_s - 1}], got range [{p2p.min()}, {p2p.max()}].")
+        raise ValueError(
+            f"p2p values must be source vertex indices in [0, {n_s - 1}], got range [{p2p.min()}, {p2p.max()}]."
+        )
     c = target.evecs.T @ (target.mass[:, None] * source.evecs[p2p])
     return FunctionalMap(c, source, target)
 

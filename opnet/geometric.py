@@ -18,6 +18,7 @@ area so that it has no unit. It keeps the displacement smooth where the truncate
 Shapes are optimised independently (in batches); each keeps the iterate with its lowest objective, so a
 step that diverges (a triangle collapsing, NaN) never reaches the result.
 """
+
 from __future__ import annotations
 
 import numbers
@@ -44,9 +45,11 @@ def _as_operators(operators, channels, k) -> torch.Tensor:
     if arr.ndim == 3:
         arr = arr[None]
     if arr.ndim != 4 or arr.shape[1:] != (len(channels), k, k):
-        raise ValueError(f"operators must have shape (B, {len(channels)}, {k}, {k}) — one {k} × {k} matrix per channel "
-                         f"{channels} of a {k}-function base basis — got {arr.shape}. Pass channels= to match the "
-                         "operators, and the base basis they were computed with.")
+        raise ValueError(
+            f"operators must have shape (B, {len(channels)}, {k}, {k}) — one {k} × {k} matrix per channel "
+            f"{channels} of a {k}-function base basis — got {arr.shape}. Pass channels= to match the "
+            "operators, and the base basis they were computed with."
+        )
     if len(arr) == 0:
         raise ValueError("operators is an empty batch (B = 0); pass at least one shape.")
     return torch.tensor(arr, dtype=torch.float64)
@@ -62,8 +65,10 @@ def _as_init(init, base_basis: Eigenbasis, batch: int) -> torch.Tensor:
     if arr.ndim == 2:
         arr = np.broadcast_to(arr, (batch, *arr.shape))
     if arr.shape != (batch, *base.shape):
-        raise ValueError(f"init must have shape ({batch}, {len(base)}, 3) — one shape per operator set, on the base's "
-                         f"{len(base)} vertices — got {arr.shape}.")
+        raise ValueError(
+            f"init must have shape ({batch}, {len(base)}, 3) — one shape per operator set, on the base's "
+            f"{len(base)} vertices — got {arr.shape}."
+        )
     check_shapes("init", arr, base_basis.mesh.faces)
     return torch.tensor(arr, dtype=torch.float64)
 
@@ -92,15 +97,29 @@ def _is_real(value) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
-def operator_mismatch(module: ShapeDifferences, X: torch.Tensor, target: torch.Tensor,
-                      scale: torch.Tensor) -> torch.Tensor:
+def operator_mismatch(
+    module: ShapeDifferences, X: torch.Tensor, target: torch.Tensor, scale: torch.Tensor
+) -> torch.Tensor:
     """Relative operator mismatch ``(B,)``: ``Σ_c ‖D_c(X) − D*_c‖²_F / scale_c`` for ``target`` ``(B, C, k, k)``."""
     return (((module(X) - target) ** 2).sum((-1, -2)) / scale).sum(-1)
 
 
-def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KINDS, steps: int = 100,
-                optimizer: str = "lbfgs", lr: float | None = None, smoothness: float = 1.0, batch_size: int = 64,
-                coarse_to_fine=(), device="cpu", callback=None, progress: bool | None = None) -> np.ndarray:
+def reconstruct(
+    operators,
+    base_basis: Eigenbasis,
+    *,
+    init="base",
+    channels=KINDS,
+    steps: int = 100,
+    optimizer: str = "lbfgs",
+    lr: float | None = None,
+    smoothness: float = 1.0,
+    batch_size: int = 64,
+    coarse_to_fine=(),
+    device="cpu",
+    callback=None,
+    progress: bool | None = None,
+) -> np.ndarray:
     """Vertices ``(B, n, 3)`` float64 whose shape differences match ``operators``, on the base's triangulation.
 
     Parameters
@@ -159,21 +178,36 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
     smoothness, lr = float(smoothness), float(lr)
     sizes = list(coarse_to_fine)
     if sizes:
-        if any(not isinstance(m, (int, np.integer)) or isinstance(m, bool) for m in sizes) or \
-                sizes != sorted(set(sizes)) or not 1 <= sizes[0] or sizes[-1] >= base_basis.k:
-            raise ValueError(f"coarse_to_fine must be increasing integer sizes in [1, {base_basis.k - 1}], got "
-                             f"{coarse_to_fine!r}.")
+        if (
+            any(not isinstance(m, (int, np.integer)) or isinstance(m, bool) for m in sizes)
+            or sizes != sorted(set(sizes))
+            or not 1 <= sizes[0]
+            or sizes[-1] >= base_basis.k
+        ):
+            raise ValueError(
+                f"coarse_to_fine must be increasing integer sizes in [1, {base_basis.k - 1}], got {coarse_to_fine!r}."
+            )
         X = X_init.numpy()
-        options = dict(channels=channels, steps=steps, optimizer=optimizer, lr=lr, smoothness=smoothness,
-                       batch_size=batch_size, device=device, progress=progress)
+        options = dict(
+            channels=channels,
+            steps=steps,
+            optimizer=optimizer,
+            lr=lr,
+            smoothness=smoothness,
+            batch_size=batch_size,
+            device=device,
+            progress=progress,
+        )
         for stage, m in enumerate([*sizes, base_basis.k]):
+
             def staged(step, *args, offset=stage * steps, first=stage == 0):  # a later stage's step 0 repeats
-                if first or step > 0:                                          # the last step of the one before
+                if first or step > 0:  # the last step of the one before
                     callback(step + offset, *args)
 
             ops = target.numpy() if m == base_basis.k else truncate_operators(target.numpy(), base_basis, channels, m)
-            X = reconstruct(ops, base_basis.truncate(m), init=X, callback=None if callback is None else staged,
-                            **options)
+            X = reconstruct(
+                ops, base_basis.truncate(m), init=X, callback=None if callback is None else staged, **options
+            )
         return X
 
     device = resolve_device(device)
@@ -185,12 +219,16 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
     with torch.no_grad():
         at_base = module(base)
     out = np.empty(tuple(X_init.shape))
-    bar = tqdm(total=steps * -(-len(target) // batch_size), desc=f"reconstruct ({optimizer})", unit="step",
-               disable=progress is False)
+    bar = tqdm(
+        total=steps * -(-len(target) // batch_size),
+        desc=f"reconstruct ({optimizer})",
+        unit="step",
+        disable=progress is False,
+    )
     for s in range(0, len(target), batch_size):
-        D = target[s:s + batch_size].to(device)
+        D = target[s : s + batch_size].to(device)
         scale = ((D - at_base) ** 2).sum((-1, -2)).clamp_min(1e-12 * base_basis.k)
-        start = X_init[s:s + batch_size].to(device)
+        start = X_init[s : s + batch_size].to(device)
 
         def objective(X, rows=slice(None)):  # X: the shapes `rows` of this batch
             d = X - start[rows]
@@ -199,14 +237,15 @@ def reconstruct(operators, base_basis: Eigenbasis, *, init="base", channels=KIND
             return mismatch + smoothness * smooth, mismatch
 
         minimise = _lbfgs if optimizer == "lbfgs" else _adam
-        out[s:s + batch_size] = minimise(objective, start, steps, lr, callback, bar).cpu().numpy()
+        out[s : s + batch_size] = minimise(objective, start, steps, lr, callback, bar).cpu().numpy()
     bar.close()
     return out
 
 
 def _value_and_grad(objective, X: torch.Tensor, rows=slice(None)):
     """Per-shape objective ``(b,)``, mismatch ``(b,)`` and gradient ``(b, n, 3)`` of the shapes ``rows`` of the
-    batch, at ``X`` (their coordinates; shapes are independent). Non-finite objectives come back as ``inf``."""
+    batch, at ``X`` (their coordinates; shapes are independent). Non-finite objectives come back as ``inf``.
+    """
     X = X.detach().requires_grad_(True)
     with torch.enable_grad():
         f, mismatch = objective(X, rows)
@@ -304,8 +343,12 @@ def _adam(objective, start: torch.Tensor, steps: int, lr: float, callback, bar) 
         if step == steps:
             break
         if not ok.all():
-            warnings.warn(f"step {step}: the objective of {int((~ok).sum())} shapes became NaN or infinite (a triangle "
-                          "collapsed?); they restart from their best iterate. Lower lr.", RuntimeWarning, stacklevel=3)
+            warnings.warn(
+                f"step {step}: the objective of {int((~ok).sum())} shapes became NaN or infinite (a triangle "
+                "collapsed?); they restart from their best iterate. Lower lr.",
+                RuntimeWarning,
+                stacklevel=3,
+            )
             with torch.no_grad():
                 X.copy_(torch.where(ok[:, None, None], X, best_X))
         X.grad = g

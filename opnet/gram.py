@@ -1,4 +1,5 @@
 """Theorem 1: the extrinsic Gram operator ``G = Φᵀ A X Xᵀ A Φ`` and the recovery of ``X`` from it."""
+
 from __future__ import annotations
 
 import numpy as np

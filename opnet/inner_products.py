@@ -16,6 +16,7 @@ shapes with the same faces exists (the three built-ins do), and :meth:`InnerProd
 the inner product has a better form on a mesh of another triangulation than the default
 ``(P Φ)ᵀ M (P Φ)`` (area and extrinsic lump their masses, as the fast path does).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -152,7 +153,8 @@ class ExtrinsicInnerProduct(InnerProduct):
         of the mesh points that land around each (a base vertex that receives no mass has no weight).
 
         Unlike the area's, this is an approximation of ``(P Φ)ᵀ E^D (P Φ)``: the spread of the positions
-        around each mean is dropped. It is exact for the identity map."""
+        around each mean is dropped. It is exact for the identity map.
+        """
         a = _vertex_areas(vertices, faces)
         mass = to_base.T @ a
         moment = to_base.T @ (a[:, None] * vertices)
@@ -168,8 +170,8 @@ def _extrinsic_gram(evecs: np.ndarray, a: np.ndarray, vertices: np.ndarray) -> n
     v = vertices - (a[..., None] * vertices).sum(-2, keepdims=True) / a.sum(-1)[..., None, None]
     u = a * np.einsum("...ni,...ni->...n", v, v)
     y = a[..., None] * v  # (..., n, 3)
-    rowsum = u * a.sum(-1, keepdims=True) + a * u.sum(-1, keepdims=True) - 2 * np.einsum(
-        "...ni,...i->...n", y, y.sum(-2)
+    rowsum = (
+        u * a.sum(-1, keepdims=True) + a * u.sum(-1, keepdims=True) - 2 * np.einsum("...ni,...i->...n", y, y.sum(-2))
     )
     pa, pu, py = evecs.T @ a[..., None], evecs.T @ u[..., None], evecs.T @ y  # (..., k, 1|3)
     low_rank = pu @ np.swapaxes(pa, -1, -2) + pa @ np.swapaxes(pu, -1, -2) - 2 * py @ np.swapaxes(py, -1, -2)
@@ -196,14 +198,18 @@ def checked_gram(ip: InnerProduct, method: str, *args) -> np.ndarray:
     K = getattr(ip, method)(*args)
     where = f"{type(ip).__name__}.{method} (inner product {ip.name!r})"
     if not isinstance(K, np.ndarray) or K.dtype.kind not in "fiu" or K.shape != shape:
-        raise ValueError(f"{where} returned {describe(K)}; it must return Φᵀ M Φ, a real array of shape {shape} "
-                         f"(k = {shape[-1]} basis functions: evecs.shape[1]).")
+        raise ValueError(
+            f"{where} returned {describe(K)}; it must return Φᵀ M Φ, a real array of shape {shape} "
+            f"(k = {shape[-1]} basis functions: evecs.shape[1])."
+        )
     if not np.isfinite(K).all():
         raise ValueError(f"{where} returned NaN or infinite values; check the operator M on this shape.")
     scale = np.abs(K).max(axis=(-2, -1), keepdims=True)
     if np.any(np.abs(K - np.swapaxes(K, -1, -2)) > 1e-8 * scale):
-        raise ValueError(f"{where} returned a non-symmetric matrix; Φᵀ M Φ of an inner product is symmetric "
-                         "(symmetrise M, e.g. (M + Mᵀ) / 2).")
+        raise ValueError(
+            f"{where} returned a non-symmetric matrix; Φᵀ M Φ of an inner product is symmetric "
+            "(symmetrise M, e.g. (M + Mᵀ) / 2)."
+        )
     return K
 
 
@@ -220,5 +226,6 @@ def get_inner_product(kind) -> InnerProduct:
         return INNER_PRODUCTS[kind]
     except (KeyError, TypeError):
         raise ValueError(
-            f"unknown shape-difference kind {kind!r}; use one of {sorted(INNER_PRODUCTS)} or an opnet.InnerProduct instance."
+            f"unknown shape-difference kind {kind!r}; use one of {sorted(INNER_PRODUCTS)} or an opnet.InnerProduct "
+            "instance."
         ) from None

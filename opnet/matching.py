@@ -20,6 +20,7 @@ conventions are opnet's: ``FM_12`` ``(k_mesh, k_base)`` carries base coefficient
 :func:`encode` turns a map into the shape differences against the base, through each inner
 product's :meth:`~opnet.InnerProduct.pull_back`.
 """
+
 from __future__ import annotations
 
 import warnings
@@ -30,14 +31,21 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from .fmaps import FunctionalMap
+from .inner_products import checked_gram, get_inner_products
 from .mesh import Mesh, closest_points_on_faces, edge_face_counts, face_areas
 from .metrics import mesh_volume
 from .shape_difference import KINDS, _check_base, base_pinvs, fast_path
-from .inner_products import checked_gram, get_inner_products
 from .spectral import Eigenbasis, eigenbasis
 
-__all__ = ["SurfaceMap", "MapQualityWarning", "compute_map", "map_from_p2p", "closest_point_map", "encode",
-           "operators_through_map"]
+__all__ = [
+    "SurfaceMap",
+    "MapQualityWarning",
+    "compute_map",
+    "map_from_p2p",
+    "closest_point_map",
+    "encode",
+    "operators_through_map",
+]
 
 #: The version of what :func:`compute_map` returns: bump it with any change to its output, so that operators
 #: cached through computed maps (:func:`opnet.data.mapped_collection`) are computed again.
@@ -80,8 +88,10 @@ class SurfaceMap:
         _check_mesh(self.mesh)
         shape = (self.mesh.n_vertices, self.base.mesh.n_vertices)
         if not sp.issparse(self.to_base) or self.to_base.shape != shape:
-            raise ValueError(f"to_base must be a scipy sparse matrix of shape (n_mesh, n_base) = {shape}, got "
-                             f"{type(self.to_base).__name__} of shape {getattr(self.to_base, 'shape', None)}.")
+            raise ValueError(
+                f"to_base must be a scipy sparse matrix of shape (n_mesh, n_base) = {shape}, got "
+                f"{type(self.to_base).__name__} of shape {getattr(self.to_base, 'shape', None)}."
+            )
         object.__setattr__(self, "to_base", self.to_base.tocsr())
 
     @property
@@ -117,7 +127,8 @@ class SurfaceMap:
     def error(self, true_map: "SurfaceMap") -> np.ndarray:
         """Per mesh vertex, the straight-line distance between this map's image on the base and ``true_map``'s,
         ``(n_mesh,)``, in units of the base's ``sqrt(area)`` (Euclidean, not geodesic: equal for small errors,
-        smaller for large ones)."""
+        smaller for large ones).
+        """
         if not isinstance(true_map, SurfaceMap) or true_map.base is not self.base:
             raise ValueError("true_map must be a SurfaceMap onto the same base_basis.")
         if true_map.mesh.n_vertices != self.mesh.n_vertices:
@@ -148,8 +159,10 @@ def _barycentric_map(face, bary, faces, n_base) -> sp.csr_matrix:
 
 def _check_mesh(mesh, what="mesh") -> Mesh:
     if not isinstance(mesh, Mesh):
-        raise TypeError(f"{what} must be an opnet.Mesh (opnet.Mesh(vertices, faces) or opnet.load_mesh(path)), "
-                        f"got {type(mesh).__name__}.")
+        raise TypeError(
+            f"{what} must be an opnet.Mesh (opnet.Mesh(vertices, faces) or opnet.load_mesh(path)), "
+            f"got {type(mesh).__name__}."
+        )
     return mesh
 
 
@@ -170,8 +183,10 @@ def map_from_p2p(base_basis: Eigenbasis, mesh: Mesh, p2p) -> SurfaceMap:
     p2p = np.asarray(p2p)
     n, n0 = mesh.n_vertices, base_basis.mesh.n_vertices
     if p2p.shape != (n,) or p2p.dtype.kind not in "iu":
-        raise ValueError(f"p2p must be an integer array of shape ({n},) (one base vertex per mesh vertex), "
-                         f"got {p2p.dtype} array of shape {p2p.shape}.")
+        raise ValueError(
+            f"p2p must be an integer array of shape ({n},) (one base vertex per mesh vertex), "
+            f"got {p2p.dtype} array of shape {p2p.shape}."
+        )
     if n and (p2p.min() < 0 or p2p.max() >= n0):
         raise ValueError(f"p2p values must be base vertex indices in [0, {n0 - 1}], got [{p2p.min()}, {p2p.max()}].")
     return SurfaceMap(base_basis, mesh, sp.csr_matrix((np.ones(n), (np.arange(n), p2p)), shape=(n, n0)))
@@ -201,8 +216,15 @@ def _pyfm_mesh(basis: Eigenbasis):
     return m
 
 
-def compute_map(base_basis: Eigenbasis, mesh: Mesh, *, k: int = 100, k_init: int = 20, orientation: bool = True,
-                base_spectrum: Eigenbasis | None = None) -> SurfaceMap:
+def compute_map(
+    base_basis: Eigenbasis,
+    mesh: Mesh,
+    *,
+    k: int = 100,
+    k_init: int = 20,
+    orientation: bool = True,
+    base_spectrum: Eigenbasis | None = None,
+) -> SurfaceMap:
     """A map from ``mesh`` (any triangulation, any vertex order) onto the base, by functional maps.
 
     Parameters
@@ -234,8 +256,9 @@ def compute_map(base_basis: Eigenbasis, mesh: Mesh, *, k: int = 100, k_init: int
         raise ValueError(f"k_init and k must be integers with 2 <= k_init <= k, got k_init={k_init!r}, k={k!r}.")
     n_max = min(mesh.n_vertices, base_basis.mesh.n_vertices) - 1
     if k > n_max:
-        raise ValueError(f"k={k} functions need meshes of more than {k} vertices; the smaller has {n_max + 1}. "
-                         "Pass a smaller k.")
+        raise ValueError(
+            f"k={k} functions need meshes of more than {k} vertices; the smaller has {n_max + 1}. Pass a smaller k."
+        )
     from pyFM.functional import FunctionalMapping
     from pyFM.spectral.nearest_neighbor.dispatch import knn_query
 
@@ -255,7 +278,7 @@ def compute_map(base_basis: Eigenbasis, mesh: Mesh, *, k: int = 100, k_init: int
             C = problem.zoomout_refine(C, nit=nit, step=size)
     C = np.asarray(C)
     # the precise map (adjoint form): mesh vertex p ↦ a point of a base triangle, in the spectral embedding
-    base_emb, mesh_emb = spectrum.evecs[:, :C.shape[1]], target.evecs[:, :C.shape[0]] @ C
+    base_emb, mesh_emb = spectrum.evecs[:, : C.shape[1]], target.evecs[:, : C.shape[0]] @ C
     near = knn_query(base_emb, mesh_emb, k=_NEAR)
     base = base_basis.mesh
     face, bary = closest_points_on_faces(mesh_emb, base_emb, base.faces, near)
@@ -272,20 +295,32 @@ def operators_through_map(surface_map, kinds=KINDS) -> np.ndarray:
     single = isinstance(surface_map, SurfaceMap)
     maps = [surface_map] if single else list(surface_map) if isinstance(surface_map, (list, tuple)) else None
     if not maps or not all(isinstance(sm, SurfaceMap) for sm in maps):
-        raise TypeError("surface_map must be an opnet.matching.SurfaceMap or a non-empty list of them, got "
-                        f"{type(surface_map).__name__}.")
+        raise TypeError(
+            "surface_map must be an opnet.matching.SurfaceMap or a non-empty list of them, got "
+            f"{type(surface_map).__name__}."
+        )
     basis = maps[0].base
     if any(sm.base is not basis for sm in maps):
         raise ValueError("the maps go onto different bases; encode them one base at a time.")
     ips = get_inner_products(kinds)
     pinvs = base_pinvs(basis, ips)
-    out = np.stack([np.stack([k0_pinv @ checked_gram(ip, "pull_back", sm.mesh.vertices, sm.mesh.faces, sm.to_base,
-                                                     basis.evecs) for ip, k0_pinv in zip(ips, pinvs)]) for sm in maps])
+    out = np.stack(
+        [
+            np.stack(
+                [
+                    k0_pinv @ checked_gram(ip, "pull_back", sm.mesh.vertices, sm.mesh.faces, sm.to_base, basis.evecs)
+                    for ip, k0_pinv in zip(ips, pinvs)
+                ]
+            )
+            for sm in maps
+        ]
+    )
     return out[0] if single else out
 
 
-def encode(mesh: Mesh, base_basis: Eigenbasis, *, fmap=None, kinds=KINDS, warn: bool = True,
-           **map_options) -> np.ndarray:
+def encode(
+    mesh: Mesh, base_basis: Eigenbasis, *, fmap=None, kinds=KINDS, warn: bool = True, **map_options
+) -> np.ndarray:
     """The shape differences ``(len(kinds), k, k)`` of any mesh against the base: OperatorNet's input.
 
     Parameters
@@ -325,9 +360,11 @@ def encode(mesh: Mesh, base_basis: Eigenbasis, *, fmap=None, kinds=KINDS, warn: 
         if warn:
             _warn_if_poor(fmap)
     elif isinstance(fmap, FunctionalMap):
-        raise TypeError("encode takes a point correspondence (fmap='computed', a vertex map or an "
-                        "opnet.matching.SurfaceMap), not an opnet.FunctionalMap; for a functional map use "
-                        "opnet.shape_difference(base_basis, mesh, kind, fmap=...).")
+        raise TypeError(
+            "encode takes a point correspondence (fmap='computed', a vertex map or an "
+            "opnet.matching.SurfaceMap), not an opnet.FunctionalMap; for a functional map use "
+            "opnet.shape_difference(base_basis, mesh, kind, fmap=...)."
+        )
     elif isinstance(fmap, SurfaceMap):
         if fmap.base is not base_basis or fmap.mesh is not mesh:
             raise ValueError("this SurfaceMap maps another mesh or base; compute it for this mesh and base_basis.")
@@ -349,5 +386,6 @@ def _warn_if_poor(surface_map: SurfaceMap) -> None:
             f"the computed map is probably wrong: {'; '.join(problems)}. The mesh may not be of the base's kind "
             f"(its area is {ratio:.2g}× the base's), or its faces are not consistently oriented. Check "
             "opnet.matching.compute_map(...).quality(), or pass a known vertex map as fmap=p2p.",
-            MapQualityWarning, stacklevel=3,
+            MapQualityWarning,
+            stacklevel=3,
         )

@@ -4,6 +4,7 @@ A :class:`Mesh` holds float64 vertex coordinates ``(n, 3)`` and int64 faces
 ``(m, 3)``. Construction checks everything the spectral code relies on and
 raises :class:`MeshError` with a message that names the problem and the fix.
 """
+
 from __future__ import annotations
 
 from functools import cached_property
@@ -16,8 +17,23 @@ from scipy.sparse.csgraph import connected_components
 
 from ._checks import real_array, warn_user
 
-__all__ = ["Mesh", "MeshError", "MeshWarning", "face_quality", "check_shapes", "span", "load_mesh", "unique_edges", "edge_face_counts", "face_areas", "degenerate_faces",
-           "farthest_first", "furthest_vertices", "vertex_faces", "closest_points_on_faces"]
+__all__ = [
+    "Mesh",
+    "MeshError",
+    "MeshWarning",
+    "face_quality",
+    "check_shapes",
+    "span",
+    "load_mesh",
+    "unique_edges",
+    "edge_face_counts",
+    "face_areas",
+    "degenerate_faces",
+    "farthest_first",
+    "furthest_vertices",
+    "vertex_faces",
+    "closest_points_on_faces",
+]
 
 _LOADABLE = (".ply", ".obj", ".off", ".stl")
 
@@ -58,8 +74,9 @@ def vertex_faces(faces: np.ndarray, n: int) -> np.ndarray:
     return table
 
 
-def closest_points_on_faces(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
-                            near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def closest_points_on_faces(
+    points: np.ndarray, vertices: np.ndarray, faces: np.ndarray, near: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The closest point to each of ``points`` ``(m, d)`` among the faces around its ``near`` vertices.
 
     ``vertices`` ``(n, d)`` may live in any dimension ``d`` (3-D space, or a spectral embedding); ``near``
@@ -69,17 +86,23 @@ def closest_points_on_faces(points: np.ndarray, vertices: np.ndarray, faces: np.
     at once: pyFM's ``project_pc_to_triangles`` does the same one point at a time.
     """
     points, near = np.asarray(points, dtype=np.float64), np.asarray(near)
-    if points.ndim != 2 or points.shape[1] != np.shape(vertices)[1] or near.dtype.kind not in "iu" \
-            or near.shape[:1] != points.shape[:1]:
-        raise ValueError(f"points must be (m, d) with d = {np.shape(vertices)[1]} and near (m, r) integer vertex "
-                         f"indices, got {points.shape} and {near.dtype} {near.shape}.")
+    if (
+        points.ndim != 2
+        or points.shape[1] != np.shape(vertices)[1]
+        or near.dtype.kind not in "iu"
+        or near.shape[:1] != points.shape[:1]
+    ):
+        raise ValueError(
+            f"points must be (m, d) with d = {np.shape(vertices)[1]} and near (m, r) integer vertex "
+            f"indices, got {points.shape} and {near.dtype} {near.shape}."
+        )
     table = vertex_faces(faces, len(vertices))
     near = near.reshape(len(points), -1)
     chunk = max(1, 2**22 // (3 * table.shape[1] * near.shape[1] * max(points.shape[1], 1)))  # ~32 MB per array
     parts = []
     for s in range(0, len(points), chunk):
-        cand = table[near[s:s + chunk]].reshape(len(near[s:s + chunk]), -1)  # (m, c) candidate faces
-        parts.append(_closest_in(points[s:s + chunk], vertices, faces, cand))
+        cand = table[near[s : s + chunk]].reshape(len(near[s : s + chunk]), -1)  # (m, c) candidate faces
+        parts.append(_closest_in(points[s : s + chunk], vertices, faces, cand))
     if not parts:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
     return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
@@ -141,7 +164,7 @@ class MeshWarning(UserWarning):
 
 
 def span(vertices: np.ndarray) -> np.ndarray:
-    """Bounding-box diagonal ``(...)`` of shapes ``(..., n, 3)`` (length unit), without overflow for large coordinates."""
+    """Bounding-box diagonal ``(...)`` of shapes ``(..., n, 3)`` (length unit), without overflow at any scale."""
     scale = np.abs(vertices).max(axis=(-2, -1), keepdims=True)
     unit = vertices / np.where(scale > 0, scale, 1.0)  # in [-1, 1]: the extent cannot overflow
     return scale[..., 0, 0] * np.linalg.norm(unit.max(-2) - unit.min(-2), axis=-1)
@@ -173,22 +196,29 @@ def degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_size: int = 64) -> None:
     """Refuse shapes ``(B, n, 3)`` sharing ``faces`` whose scale is out of range or that have collapsed faces
     (``ValueError`` naming ``name`` and the first shape), and warn (:class:`MeshWarning`) about near-degenerate
-    ones. Checked ``batch_size`` shapes at a time (the triangles of a whole collection take gigabytes)."""
+    ones. Checked ``batch_size`` shapes at a time (the triangles of a whole collection take gigabytes).
+    """
     spans = span(vertices)
     bad = ((spans > 0) & (spans < SPAN_RANGE[0])) | (spans > SPAN_RANGE[1])  # 0: all faces collapsed, below
     if bad.any():
         i = np.flatnonzero(bad)[0]
-        raise ValueError(f"{name}: {bad.sum()} shapes span a bounding-box diagonal outside {list(SPAN_RANGE)} length "
-                         f"units (first: shape {i}, {spans[i]:.3g}), where float64 areas and the extrinsic operator "
-                         "under- or overflow; rescale the coordinates.")
-    quality = np.concatenate([np.zeros(0)] + [_quality(vertices[s:s + batch_size], faces).min(-1)
-                                              for s in range(0, len(vertices), batch_size)])
+        raise ValueError(
+            f"{name}: {bad.sum()} shapes span a bounding-box diagonal outside {list(SPAN_RANGE)} length "
+            f"units (first: shape {i}, {spans[i]:.3g}), where float64 areas and the extrinsic operator "
+            "under- or overflow; rescale the coordinates."
+        )
+    quality = np.concatenate(
+        [np.zeros(0)]
+        + [_quality(vertices[s : s + batch_size], faces).min(-1) for s in range(0, len(vertices), batch_size)]
+    )
     for what, limit in (("zero-area (collapsed)", REFUSE_QUALITY), ("near-degenerate", WARN_QUALITY)):
         low = quality < limit
         if low.any():
             i = np.flatnonzero(low)[0]
-            text = (f"{name}: {low.sum()} shapes have {what} faces (quality 4√3·area/Σedge² below {limit:g}; first: "
-                    f"shape {i}, quality {quality[i]:.2g}); ")
+            text = (
+                f"{name}: {low.sum()} shapes have {what} faces (quality 4√3·area/Σedge² below {limit:g}; first: "
+                f"shape {i}, quality {quality[i]:.2g}); "
+            )
             if limit == REFUSE_QUALITY:
                 raise ValueError(text + "cotan weights are undefined there. Drop or repair those shapes.")
             warn_user(text + "their cotan weights (∝ 1/quality) dominate the conformal operator.", MeshWarning)
@@ -213,8 +243,10 @@ def _as_vertices(vertices) -> np.ndarray:
         raise MeshError(str(exc)) from None
     bad = ~np.isfinite(v).all(axis=1)
     if bad.any():
-        raise MeshError(f"{bad.sum()} vertices have NaN or infinite coordinates (first: vertex {np.flatnonzero(bad)[0]}); "
-                        "remove or repair them before building the mesh.")
+        raise MeshError(
+            f"{bad.sum()} vertices have NaN or infinite coordinates (first: vertex {np.flatnonzero(bad)[0]}); "
+            "remove or repair them before building the mesh."
+        )
     return v
 
 
@@ -224,7 +256,9 @@ def _as_faces(faces, n: int) -> np.ndarray:
     except Exception:  # ragged lists, e.g. triangles mixed with quads
         raise MeshError("faces could not be read as an (m, 3) array; triangulate polygons first.") from None
     if f.ndim != 2 or f.shape[1] != 3:
-        raise MeshError(f"faces have shape {f.shape}; pass an (m, 3) integer array of triangles (triangulate polygons first).")
+        raise MeshError(
+            f"faces have shape {f.shape}; pass an (m, 3) integer array of triangles (triangulate polygons first)."
+        )
     if f.dtype.kind == "f":
         if not np.all(np.isfinite(f)) or np.any(f != np.round(f)):
             raise MeshError("faces hold non-integer values; faces are vertex indices, pass an integer array.")
@@ -263,13 +297,17 @@ def _components_message(v: np.ndarray, f: np.ndarray, labels: np.ndarray, n_comp
     sizes = np.sort(np.bincount(labels))[::-1]
     unused = len(v) - len(np.unique(f))
     detail = f" ({unused} of them are vertices used by no face)" if unused else ""
-    text = (f"the mesh has {n_comp} connected components{detail}, sizes {sizes[:5].tolist()}{'...' if n_comp > 5 else ''}; "
-            "the Laplacian of a disconnected mesh has several zero eigenvalues. ")
+    text = (
+        f"the mesh has {n_comp} connected components{detail}, sizes {sizes[:5].tolist()}{'...' if n_comp > 5 else ''}; "
+        "the Laplacian of a disconnected mesh has several zero eigenvalues. "
+    )
     repeats = len(v) - len(np.unique(v, axis=0))
     if repeats:
-        return text + (f"{repeats} vertices repeat the position of another (a triangle soup, as STL files and some "
-                       "exporters write): merge them first, e.g. tm = trimesh.Trimesh(vertices, faces) (which merges "
-                       "them), then opnet.Mesh(tm.vertices, tm.faces).")
+        return text + (
+            f"{repeats} vertices repeat the position of another (a triangle soup, as STL files and some "
+            "exporters write): merge them first, e.g. tm = trimesh.Trimesh(vertices, faces) (which merges "
+            "them), then opnet.Mesh(tm.vertices, tm.faces)."
+        )
     if sizes[0] < 4:
         return text + "No component has at least 4 vertices, as a surface needs: pass a connected triangle mesh."
     return text + "Pass keep_largest_component=True to keep the largest one."
@@ -309,7 +347,9 @@ class Mesh:
     def __init__(self, vertices, faces, *, keep_largest_component: bool = False, normalize_area: bool = False):
         v = _as_vertices(vertices)
         if len(v) < 4:
-            raise MeshError(f"the mesh has {len(v)} vertices; a closed or open surface needs at least 4 (a tetrahedron).")
+            raise MeshError(
+                f"the mesh has {len(v)} vertices; a closed or open surface needs at least 4 (a tetrahedron)."
+            )
         f = _as_faces(faces, len(v))
         kept = np.arange(len(v))
         n_comp, labels = _components(f, len(v))
@@ -324,7 +364,8 @@ class Mesh:
             v = v / diagonal
         elif 0 < diagonal < SPAN_RANGE[0] or diagonal > SPAN_RANGE[1]:  # 0: all faces collapsed, said below
             raise MeshError(
-                f"the mesh spans {diagonal:.3g} length units (bounding-box diagonal), outside {list(SPAN_RANGE)}, where "
+                f"the mesh spans {diagonal:.3g} length units (bounding-box diagonal), outside {list(SPAN_RANGE)}, "
+                "where "
                 "float64 areas and the extrinsic operator (∝ length⁶) under- or overflow; rescale the coordinates "
                 f"(e.g. vertices / {diagonal:.3g}) or pass normalize_area=True."
             )
@@ -345,7 +386,8 @@ class Mesh:
         repeated = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 2] == f[:, 0])
         if repeated.any():
             raise MeshError(
-                f"{repeated.sum()} faces repeat a vertex (first: face {np.flatnonzero(repeated)[0]} = {f[repeated][0].tolist()}); "
+                f"{repeated.sum()} faces repeat a vertex (first: face {np.flatnonzero(repeated)[0]} = "
+                f"{f[repeated][0].tolist()}); "
                 "remove degenerate faces, e.g. trimesh's mesh.update_faces(mesh.nondegenerate_faces())."
             )
         quality = _quality(v, f)
@@ -355,18 +397,28 @@ class Mesh:
                 continue
             worst = low[np.argsort(quality[low])][:5].tolist()
             others = f", then faces {worst[1:]}" if len(worst) > 1 else ""
-            text = (f"{len(low)} faces have quality 4√3·area/Σedge² below {limit:g} (worst: face {worst[0]}, quality "
-                    f"{quality[worst[0]]:.2g}{others}; an equilateral triangle has 1)")
+            text = (
+                f"{len(low)} faces have quality 4√3·area/Σedge² below {limit:g} (worst: face {worst[0]}, quality "
+                f"{quality[worst[0]]:.2g}{others}; an equilateral triangle has 1)"
+            )
             if limit == REFUSE_QUALITY:
                 size, distance = float(span(v)), float(np.abs(v).max())
-                cause = (f" The shape spans {size:.2g} at {distance:.2g} from the origin: it is smaller than its distance "
-                         "from the origin by more than float64 resolves; centre the coordinates where they are made."
-                         if size < 1e-8 * distance else "")
-                raise MeshError(text + "; they have zero area or nearly, and cotan weights are undefined there. Remove "
-                                "them or merge their collinear/duplicate vertices (trimesh: merge_vertices, "
-                                "update_faces(nondegenerate_faces())). " + cause)
-            warn_user(text + ": their cotan weights (∝ 1/quality) dominate the conformal operator. Remesh (e.g. "
-                      "isotropic remeshing in pymeshlab) or leave the conformal channel out.", MeshWarning)
+                cause = (
+                    f" The shape spans {size:.2g} at {distance:.2g} from the origin: it is smaller than its distance "
+                    "from the origin by more than float64 resolves; centre the coordinates where they are made."
+                    if size < 1e-8 * distance
+                    else ""
+                )
+                raise MeshError(
+                    text + "; they have zero area or nearly, and cotan weights are undefined there. Remove "
+                    "them or merge their collinear/duplicate vertices (trimesh: merge_vertices, "
+                    "update_faces(nondegenerate_faces())). " + cause
+                )
+            warn_user(
+                text + ": their cotan weights (∝ 1/quality) dominate the conformal operator. Remesh (e.g. "
+                "isotropic remeshing in pymeshlab) or leave the conformal channel out.",
+                MeshWarning,
+            )
         _, counts = edge_face_counts(f)
         if (counts > 2).any():
             raise MeshError(
@@ -404,8 +456,10 @@ class Mesh:
         """The same connectivity with new coordinates ``(n, 3)`` (validated)."""
         v = _as_vertices(vertices)
         if len(v) != self.n_vertices:
-            raise MeshError(f"the coordinates are for {len(v)} vertices, this mesh has {self.n_vertices}: pass new "
-                            f"coordinates ({self.n_vertices}, 3) of the same vertices, or a Mesh of its own (and a map).")
+            raise MeshError(
+                f"the coordinates are for {len(v)} vertices, this mesh has {self.n_vertices}: pass new "
+                f"coordinates ({self.n_vertices}, 3) of the same vertices, or a Mesh of its own (and a map)."
+            )
         return Mesh(v, self.faces)
 
     def __repr__(self) -> str:

@@ -1,4 +1,5 @@
 """Rigid alignment (Kabsch, no reflections) and the paper's reconstruction metrics (section 6, eq. 9)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -12,8 +13,10 @@ __all__ = ["kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume"]
 def _pair(X, Y, names=("X", "Y")) -> tuple[np.ndarray, np.ndarray]:
     X, Y = real_array(names[0], X), real_array(names[1], Y)
     if X.shape != Y.shape or X.ndim < 2 or X.shape[-1] != 3 or X.shape[-2] == 0:
-        raise ValueError(f"{names[0]} and {names[1]} must have the same shape (..., n, 3) with n >= 1 points, got "
-                         f"{X.shape} and {Y.shape}.")
+        raise ValueError(
+            f"{names[0]} and {names[1]} must have the same shape (..., n, 3) with n >= 1 points, got "
+            f"{X.shape} and {Y.shape}."
+        )
     return X, Y
 
 

@@ -7,6 +7,7 @@ default, the paper's best in its ablation, Appendix B) and a dense decoder (1024
 :class:`PointNetAutoencoder` reads the coordinates themselves with a PointNet encoder and decodes them with
 the same dense decoder. :data:`ARCHITECTURES` names both for :func:`build_model` and the trainer.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -16,8 +17,15 @@ from torch import nn
 from ._checks import describe, real_array
 from .shape_difference import KINDS
 
-__all__ = ["OperatorNet", "PointNetAutoencoder", "build_model", "rigid_alignment_loss", "kabsch_torch", "VARIANTS",
-           "ARCHITECTURES"]
+__all__ = [
+    "OperatorNet",
+    "PointNetAutoencoder",
+    "build_model",
+    "rigid_alignment_loss",
+    "kabsch_torch",
+    "VARIANTS",
+    "ARCHITECTURES",
+]
 
 #: Named network settings: the paper's architecture (fed ``D − I``), and this project's variant.
 VARIANTS = {"paper": dict(), "ours": dict(standardize=True, residual=True)}
@@ -33,8 +41,10 @@ def as_input(name: str, x, module: nn.Module, shape: tuple, shape_text: str) -> 
     the training loop's path: :func:`opnet.evaluate.predict` and :func:`opnet.evaluate.decode` check them.
     """
     param = next(module.parameters())
-    fix = (f"pass {shape_text} real values in {str(param.dtype).replace('torch.', '')} (x.float() or "
-           "np.float32 arrays), or use opnet.evaluate.predict(net, x), which converts and batches")
+    fix = (
+        f"pass {shape_text} real values in {str(param.dtype).replace('torch.', '')} (x.float() or "
+        "np.float32 arrays), or use opnet.evaluate.predict(net, x), which converts and batches"
+    )
     if not isinstance(x, torch.Tensor):
         try:  # nested lists hold numbers of no declared precision: read in the network's
             arr = np.asarray(x) if isinstance(x, np.ndarray) else np.asarray(x, dtype=str(param.dtype)[6:])
@@ -46,9 +56,11 @@ def as_input(name: str, x, module: nn.Module, shape: tuple, shape_text: str) -> 
     if x.is_complex() or x.dtype == torch.bool:
         raise TypeError(f"{name} must hold real numbers, got {x.dtype}; {fix}.")
     if x.is_floating_point() and x.dtype != param.dtype and x.element_size() > param.element_size():
-        raise TypeError(f"{name} is {str(x.dtype).replace('torch.', '')} of shape {tuple(x.shape)} but this network "
-                        f"computes in {str(param.dtype).replace('torch.', '')}, which would round it; {fix} (or "
-                        "net.double()).")
+        raise TypeError(
+            f"{name} is {str(x.dtype).replace('torch.', '')} of shape {tuple(x.shape)} but this network "
+            f"computes in {str(param.dtype).replace('torch.', '')}, which would round it; {fix} (or "
+            "net.double())."
+        )
     if x.ndim != len(shape) or any(s is not None and a != s for a, s in zip(x.shape, shape)):
         raise ValueError(f"{name} must have shape {shape_text}, got {tuple(x.shape)}.")
     return x.to(dtype=param.dtype, device=param.device)
@@ -79,8 +91,17 @@ class OperatorNet(nn.Module):
     reports how each part changes the validation error. Both sets of buffers are saved with the weights.
     """
 
-    def __init__(self, n_vertices: int, k: int = 60, channels=KINDS, depth: int = 1, hidden: int = 1024,
-                 subtract_identity: bool = True, standardize: bool = False, residual: bool = False):
+    def __init__(
+        self,
+        n_vertices: int,
+        k: int = 60,
+        channels=KINDS,
+        depth: int = 1,
+        hidden: int = 1024,
+        subtract_identity: bool = True,
+        standardize: bool = False,
+        residual: bool = False,
+    ):
         super().__init__()
         channels = tuple(channels)
         if not channels or not set(channels) <= set(KINDS) or len(set(channels)) != len(channels):
@@ -108,11 +129,18 @@ class OperatorNet(nn.Module):
         self.decoder = dense_decoder(width * size * size, hidden, n_vertices)
 
     def forward(self, operators: torch.Tensor) -> torch.Tensor:
-        operators = as_input("operators", operators, self, (None, len(self.channels), self.k, self.k),
-                             f"(B, {len(self.channels)}, {self.k}, {self.k}) (channels {self.channels})")
+        operators = as_input(
+            "operators",
+            operators,
+            self,
+            (None, len(self.channels), self.k, self.k),
+            f"(B, {len(self.channels)}, {self.k}, {self.k}) (channels {self.channels})",
+        )
         if (self.standardize or self.residual) and not self.statistics_set:
-            raise RuntimeError("this OperatorNet standardizes its inputs or decodes from the base, but its statistics "
-                               "are not set: call net.set_statistics(train_operators, base_vertices) first (fit does).")
+            raise RuntimeError(
+                "this OperatorNet standardizes its inputs or decodes from the base, but its statistics "
+                "are not set: call net.set_statistics(train_operators, base_vertices) first (fit does)."
+            )
         if self.standardize:
             operators = (operators - self.input_mean) / self.input_std
         elif self.subtract_identity:
@@ -122,7 +150,8 @@ class OperatorNet(nn.Module):
 
     def set_statistics(self, operators: torch.Tensor, base_vertices=None) -> "OperatorNet":
         """Set the buffers of ``standardize`` (from training operators ``(N, C, k, k)``) and ``residual`` (the base
-        shape's vertices ``(n, 3)``); :func:`opnet.train.fit` calls it before training. Returns ``self``."""
+        shape's vertices ``(n, 3)``); :func:`opnet.train.fit` calls it before training. Returns ``self``.
+        """
         with torch.no_grad():
             if self.standardize:
                 ops = torch.as_tensor(operators, dtype=torch.float64)
@@ -132,8 +161,10 @@ class OperatorNet(nn.Module):
                 self.input_std.copy_(torch.where(std > 1e-8, std, torch.ones_like(std)))
             if self.residual:
                 if base_vertices is None or tuple(np.shape(base_vertices)) != (self.n_vertices, 3):
-                    raise ValueError(f"residual=True needs the base shape's vertices ({self.n_vertices}, 3), got "
-                                     f"{None if base_vertices is None else np.shape(base_vertices)}.")
+                    raise ValueError(
+                        f"residual=True needs the base shape's vertices ({self.n_vertices}, 3), got "
+                        f"{None if base_vertices is None else np.shape(base_vertices)}."
+                    )
                 self.base.copy_(torch.tensor(np.asarray(base_vertices), dtype=self.base.dtype))
             if self.standardize or self.residual:
                 self.statistics_set.fill_(True)
@@ -141,15 +172,27 @@ class OperatorNet(nn.Module):
 
     def config(self) -> dict:
         """The constructor's arguments, enough to rebuild the network (stored in checkpoints)."""
-        return dict(n_vertices=self.n_vertices, k=self.k, channels=list(self.channels), depth=self.depth,
-                    hidden=self.hidden, subtract_identity=self.subtract_identity, standardize=self.standardize,
-                    residual=self.residual)
+        return dict(
+            n_vertices=self.n_vertices,
+            k=self.k,
+            channels=list(self.channels),
+            depth=self.depth,
+            hidden=self.hidden,
+            subtract_identity=self.subtract_identity,
+            standardize=self.standardize,
+            residual=self.residual,
+        )
 
 
 def dense_decoder(in_features: int, hidden: int, n_vertices: int) -> nn.Sequential:
-    """OperatorNet's decoder: ``in_features`` → ``hidden`` → ``hidden`` → ``3 n`` (ReLU between); reshape to ``(n, 3)``."""
-    return nn.Sequential(nn.Linear(in_features, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(),
-                         nn.Linear(hidden, 3 * n_vertices))
+    """OperatorNet's decoder: ``in_features`` → ``hidden`` → ``hidden`` → ``3 n`` (ReLU between), as ``(n, 3)``."""
+    return nn.Sequential(
+        nn.Linear(in_features, hidden),
+        nn.ReLU(),
+        nn.Linear(hidden, hidden),
+        nn.ReLU(),
+        nn.Linear(hidden, 3 * n_vertices),
+    )
 
 
 class PointNetAutoencoder(nn.Module):
@@ -176,24 +219,30 @@ class PointNetAutoencoder(nn.Module):
         super().__init__()
         n_points = n_vertices if n_points is None else n_points
         if n_vertices < 4 or not 1 <= n_points <= n_vertices or latent < 1 or hidden < 1:
-            raise ValueError(f"need n_vertices >= 4, 1 <= n_points <= n_vertices, latent >= 1 and hidden >= 1, got "
-                             f"{n_vertices}, {n_points}, {latent}, {hidden}.")
+            raise ValueError(
+                f"need n_vertices >= 4, 1 <= n_points <= n_vertices, latent >= 1 and hidden >= 1, got "
+                f"{n_vertices}, {n_points}, {latent}, {hidden}."
+            )
         self.n_vertices, self.n_points, self.latent, self.hidden = n_vertices, n_points, latent, hidden
         self.register_buffer("point_index", torch.linspace(0, n_vertices - 1, n_points).round().long())
-        self.point_mlp = nn.Sequential(nn.Linear(3, 64), nn.ReLU(), nn.Linear(64, 128), nn.ReLU(),
-                                       nn.Linear(128, latent), nn.ReLU())
+        self.point_mlp = nn.Sequential(
+            nn.Linear(3, 64), nn.ReLU(), nn.Linear(64, 128), nn.ReLU(), nn.Linear(128, latent), nn.ReLU()
+        )
         self.decoder = dense_decoder(latent, hidden, n_vertices)
 
     def choose_points(self, base_vertices) -> "PointNetAutoencoder":
         """Read the ``n_points`` vertices spread furthest apart on the base shape ``(n, 3)``
-        (:func:`opnet.mesh.furthest_vertices`); :func:`opnet.train.fit` calls it. Returns ``self``."""
+        (:func:`opnet.mesh.furthest_vertices`); :func:`opnet.train.fit` calls it. Returns ``self``.
+        """
         from .mesh import furthest_vertices
 
         if tuple(np.shape(base_vertices)) != (self.n_vertices, 3):
             raise ValueError(f"base_vertices must be ({self.n_vertices}, 3), got {np.shape(base_vertices)}.")
         index = np.sort(furthest_vertices(base_vertices, self.n_points))
         if len(index) < self.n_points:
-            raise ValueError(f"the base shape has only {len(index)} distinct vertices, fewer than n_points={self.n_points}.")
+            raise ValueError(
+                f"the base shape has only {len(index)} distinct vertices, fewer than n_points={self.n_points}."
+            )
         self.point_index.copy_(torch.from_numpy(index))
         return self
 
@@ -212,8 +261,13 @@ class PointNetAutoencoder(nn.Module):
 
     def config(self) -> dict:
         """The constructor's arguments and ``architecture="pointnet"`` (stored in checkpoints; :func:`build_model`)."""
-        return dict(architecture="pointnet", n_vertices=self.n_vertices, n_points=self.n_points, latent=self.latent,
-                    hidden=self.hidden)
+        return dict(
+            architecture="pointnet",
+            n_vertices=self.n_vertices,
+            n_points=self.n_points,
+            latent=self.latent,
+            hidden=self.hidden,
+        )
 
 
 #: The networks the trainer knows, by the name stored in a checkpoint's config (``architecture``), and what they read.
@@ -231,7 +285,8 @@ def build_model(config: dict) -> nn.Module:
 
 def _statistics_were_set(state_dict, prefix, *args) -> None:
     """Checkpoints written before the ``statistics_set`` flag existed came from :func:`opnet.train.fit`, which
-    always sets the statistics: read them as set."""
+    always sets the statistics: read them as set.
+    """
     if prefix + "input_mean" in state_dict or prefix + "base" in state_dict:
         state_dict.setdefault(prefix + "statistics_set", torch.tensor(True))
 
@@ -257,7 +312,8 @@ def rigid_alignment_loss(pred: torch.Tensor, target: torch.Tensor, reduction: st
     """Eq. 9: ``(1/n) Σ_i ‖R(pred_i) − target_i‖²`` after the optimal rigid motion ``R``, per shape.
 
     ``pred``, ``target``: ``(B, n, 3)``, ``B ≥ 1``. ``reduction="mean"`` averages over the batch (a scalar),
-    ``"none"`` returns the ``(B,)`` per-shape values (``d_R`` of each shape). The optimal rotation and translation are found by Kabsch (float64
+    ``"none"`` returns the ``(B,)`` per-shape values (``d_R`` of each shape). The optimal rotation and
+    translation are found by Kabsch (float64
     SVD, no reflections) and then held fixed: since they minimise the loss, the gradient with them fixed is
     the gradient of the minimum (Danskin's theorem), so no gradient flows through the SVD and it stays finite
     even where singular values coincide. Invariant to rigid motions of ``pred``.

@@ -1,4 +1,5 @@
 """Figures: meshes with scalar fields (pyvista, static images) and operators as heat maps (matplotlib)."""
+
 from __future__ import annotations
 
 import os
@@ -7,9 +8,20 @@ import numpy as np
 
 from .mesh import Mesh
 
-__all__ = ["headless", "use_static_backend", "to_pyvista", "plot_meshes", "plot_operators", "plot_reconstructions",
-           "plot_mapped_reconstructions", "plot_history", "plot_refinement_curves", "plot_ablation",
-           "plot_interpolations", "plot_analogies"]
+__all__ = [
+    "headless",
+    "use_static_backend",
+    "to_pyvista",
+    "plot_meshes",
+    "plot_operators",
+    "plot_reconstructions",
+    "plot_mapped_reconstructions",
+    "plot_history",
+    "plot_refinement_curves",
+    "plot_ablation",
+    "plot_interpolations",
+    "plot_analogies",
+]
 
 
 def headless() -> None:
@@ -57,8 +69,20 @@ def to_pyvista(mesh):
     return pv.PolyData(np.asarray(v), np.hstack([np.full((len(f), 1), 3), f]).ravel())
 
 
-def plot_meshes(meshes, scalars=None, titles=None, *, cmap="coolwarm", clim=None, cmaps=None, clims=None, ncols=None,
-                camera="yz", zoom=1.0, window_size=None):
+def plot_meshes(
+    meshes,
+    scalars=None,
+    titles=None,
+    *,
+    cmap="coolwarm",
+    clim=None,
+    cmaps=None,
+    clims=None,
+    ncols=None,
+    camera="yz",
+    zoom=1.0,
+    window_size=None,
+):
     """A pyvista plotter with one mesh per subplot (call ``.show()`` on it, or ``.screenshot(path)``).
 
     Parameters
@@ -150,8 +174,17 @@ def plot_reconstructions(gt, reconstructions: dict, faces, *, titles=None, clim=
             scalars.append(errors[name][i])
             labels.append(f"{name}: mean {1000 * errors[name][i].mean():.1f} mm" if clim[1] < 1 else name)
     ncols = 1 + len(reconstructions)
-    return plot_meshes(meshes, scalars, labels, cmap="magma_r", clim=clim, ncols=ncols, camera=camera, zoom=zoom,
-                       window_size=(330 * ncols, 360 * len(gt)))
+    return plot_meshes(
+        meshes,
+        scalars,
+        labels,
+        cmap="magma_r",
+        clim=clim,
+        ncols=ncols,
+        camera=camera,
+        zoom=zoom,
+        window_size=(330 * ncols, 360 * len(gt)),
+    )
 
 
 def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, camera="xz", zoom=1.2):
@@ -184,8 +217,10 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
     for i, sm in enumerate(surface_maps):
         meshes += [sm.mesh, base]
         scalars += [sm.to_base @ painted, painted]
-        titles += [f"input ({sm.mesh.n_vertices} vertices), through its map",
-                   f"the base ({base.n_vertices} vertices): the map's target"]
+        titles += [
+            f"input ({sm.mesh.n_vertices} vertices), through its map",
+            f"the base ({base.n_vertices} vertices): the map's target",
+        ]
         cmaps += ["coolwarm", "coolwarm"]
         clims += [(-2.0, 2.0), (-2.0, 2.0)]
         for name, (aligned, err) in errors.items():
@@ -196,8 +231,17 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
             cmaps.append("magma_r")
             clims.append((0.0, top))
     ncols = 2 + len(reconstructions)
-    return plot_meshes(meshes, scalars, titles, cmaps=cmaps, clims=clims, ncols=ncols, camera=camera, zoom=zoom,
-                       window_size=(330 * ncols, 360 * len(surface_maps)))
+    return plot_meshes(
+        meshes,
+        scalars,
+        titles,
+        cmaps=cmaps,
+        clims=clims,
+        ncols=ncols,
+        camera=camera,
+        zoom=zoom,
+        window_size=(330 * ncols, 360 * len(surface_maps)),
+    )
 
 
 def _aligned_errors(shapes, truth):
@@ -235,8 +279,17 @@ def plot_interpolations(paths: dict, faces, t, *, truth=None, columns: int = 6, 
             head = f"{name}\n" if j == 0 else "\n"
             err = f", {1000 * errors[name][1][j].mean():.1f} mm" if name in errors and clim[1] < 1 else ""
             titles.append(f"{head}t = {t[c]:.2f}{err}")
-    return plot_meshes(meshes, scalars, titles, cmap="magma_r", clim=clim, ncols=len(cols), camera=camera, zoom=zoom,
-                       window_size=(240 * len(cols), 300 * len(rows)))
+    return plot_meshes(
+        meshes,
+        scalars,
+        titles,
+        cmap="magma_r",
+        clim=clim,
+        ncols=len(cols),
+        camera=camera,
+        zoom=zoom,
+        window_size=(240 * len(cols), 300 * len(rows)),
+    )
 
 
 def plot_analogies(A, B, C, results: dict, faces, *, truth=None, clim=None, camera="xz", zoom=1.2):
@@ -255,8 +308,13 @@ def plot_analogies(A, B, C, results: dict, faces, *, truth=None, clim=None, came
         shown += [("true X", np.asarray(truth)[i], None)] if truth is not None else []
         for name, X in results.items():
             if name in errors:
-                shown.append((f"{name}: {1000 * errors[name][1][i].mean():.1f} mm" if clim[1] < 1 else name,
-                              errors[name][0][i], errors[name][1][i]))
+                shown.append(
+                    (
+                        f"{name}: {1000 * errors[name][1][i].mean():.1f} mm" if clim[1] < 1 else name,
+                        errors[name][0][i],
+                        errors[name][1][i],
+                    )
+                )
             else:
                 shown.append((name, np.asarray(X)[i], None))
         for title, V, err in shown:
@@ -264,8 +322,17 @@ def plot_analogies(A, B, C, results: dict, faces, *, truth=None, clim=None, came
             scalars.append(err)
             titles.append(title if i == 0 or err is not None else "")
     ncols = len(meshes) // len(A)
-    return plot_meshes(meshes, scalars, titles, cmap="magma_r", clim=clim, ncols=ncols, camera=camera, zoom=zoom,
-                       window_size=(240 * ncols, 300 * len(A)))
+    return plot_meshes(
+        meshes,
+        scalars,
+        titles,
+        cmap="magma_r",
+        clim=clim,
+        ncols=ncols,
+        camera=camera,
+        zoom=zoom,
+        window_size=(240 * ncols, 300 * len(A)),
+    )
 
 
 def plot_history(histories: dict, *, ax=None):

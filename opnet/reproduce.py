@@ -21,6 +21,7 @@ With ``applications=True`` (default) it also trains the PointNet autoencoder (a 
 ground-truth analogy and interpolation benchmarks of :mod:`opnet.apps` (rows with ``"table"`` ``"analogy"`` and
 ``"interpolation"``). Table 1, the applications and ``results.*`` are written before the ablation.
 """
+
 from __future__ import annotations
 
 import json
@@ -34,17 +35,55 @@ import numpy as np
 
 from ._checks import check_int
 from ._files import atomic_write
-from .evaluate import (TEST_SETS, _select, base_shape_method, channel_label, evaluate, evenly_spaced, geometric_method,
-                       nearest_neighbour_method, operatornet_method, pointnet_method, refined_method, test_set_indices)
+from .evaluate import (
+    TEST_SETS,
+    _select,
+    base_shape_method,
+    channel_label,
+    evaluate,
+    evenly_spaced,
+    geometric_method,
+    nearest_neighbour_method,
+    operatornet_method,
+    pointnet_method,
+    refined_method,
+    test_set_indices,
+)
 from .shape_difference import KINDS
 from .train import CHANNEL_SETS
 
-__all__ = ["reproduce", "run_path", "table1_networks", "comp_networks", "discretisation_rows", "discretisation_indices",
-           "discretisation_figure",
-           "application_methods", "applications_rows", "applications_markdown", "discretisation_markdown",
-           "ablation_table", "results_markdown", "refinement_curves", "snapshot_steps", "Budget", "BUDGETS", "TABLE1",
-           "OURS", "COMP", "COMP_RESOLUTION", "DISCRETISATIONS", "DISCRETISATION_NETWORKS", "POINTNET", "REFINE",
-           "REFINE_SETS", "ABLATION_SETS", "ABLATION_DEPTHS", "PAPER_TABLE1", "PAPER_ABLATION"]
+__all__ = [
+    "reproduce",
+    "run_path",
+    "table1_networks",
+    "comp_networks",
+    "discretisation_rows",
+    "discretisation_indices",
+    "discretisation_figure",
+    "application_methods",
+    "applications_rows",
+    "applications_markdown",
+    "discretisation_markdown",
+    "ablation_table",
+    "results_markdown",
+    "refinement_curves",
+    "snapshot_steps",
+    "Budget",
+    "BUDGETS",
+    "TABLE1",
+    "OURS",
+    "COMP",
+    "COMP_RESOLUTION",
+    "DISCRETISATIONS",
+    "DISCRETISATION_NETWORKS",
+    "POINTNET",
+    "REFINE",
+    "REFINE_SETS",
+    "ABLATION_SETS",
+    "ABLATION_DEPTHS",
+    "PAPER_TABLE1",
+    "PAPER_ABLATION",
+]
 
 
 @dataclass(frozen=True)
@@ -66,15 +105,28 @@ class Budget:
 
 
 BUDGETS = {
-    "quick": Budget(epochs=80, ablation_epochs=6, batch_size=16, refine_steps=30, refine_shapes=12, pointnet_epochs=40,
-                    analogies=24, paths=4, apps_refine_shapes=6, discretisation_shapes=12),
+    "quick": Budget(
+        epochs=80,
+        ablation_epochs=6,
+        batch_size=16,
+        refine_steps=30,
+        refine_shapes=12,
+        pointnet_epochs=40,
+        analogies=24,
+        paths=4,
+        apps_refine_shapes=6,
+        discretisation_shapes=12,
+    ),
     "default": Budget(epochs=60, ablation_epochs=12),
     "paper": Budget(epochs=100, ablation_epochs=25),
 }
 
 #: Table 1's OperatorNet rows: name → input channels (depth 1, the paper's model).
-TABLE1 = {"OperatorNet (Int+Ext)": KINDS, "OperatorNet (Int)": ("area", "conformal"),
-          "OperatorNet (Ext)": ("extrinsic",)}
+TABLE1 = {
+    "OperatorNet (Int+Ext)": KINDS,
+    "OperatorNet (Int)": ("area", "conformal"),
+    "OperatorNet (Ext)": ("extrinsic",),
+}
 #: The ablation's columns (Appendix B, in the paper's order) and rows.
 ABLATION_SETS = CHANNEL_SETS
 ABLATION_DEPTHS = (1, 2, 3, 4)
@@ -99,12 +151,21 @@ DISCRETISATION_NETWORKS = ("OperatorNet (Int+Ext)", "OperatorNet (Ext)", *COMP)
 POINTNET = "PointNet AE"
 
 #: The paper's Table 1 on DFAUST (d_R ×10⁻⁴, d_V, d_E), for reference beside ours.
-PAPER_TABLE1 = {"OperatorNet (Int+Ext)": (1.11, 0.014, 0.045), "OperatorNet (Int)": (2.41, 0.013, 0.046),
-                "OperatorNet (Ext)": (1.25, 0.017, 0.046), "Nearest neighbour (Int+Ext)": (25.5, 0.005, 0.043),
-                "OperatorNet (Comp)(Ext)": (3.86, 0.021, 0.052), "OperatorNet (Comp)(Int+Ext)": (6.22, 0.022, 0.053)}
+PAPER_TABLE1 = {
+    "OperatorNet (Int+Ext)": (1.11, 0.014, 0.045),
+    "OperatorNet (Int)": (2.41, 0.013, 0.046),
+    "OperatorNet (Ext)": (1.25, 0.017, 0.046),
+    "Nearest neighbour (Int+Ext)": (25.5, 0.005, 0.043),
+    "OperatorNet (Comp)(Ext)": (3.86, 0.021, 0.052),
+    "OperatorNet (Comp)(Int+Ext)": (6.22, 0.022, 0.053),
+}
 #: The paper's ablation (Appendix B, d_R ×10⁻⁴ on the DFAUST test set): depth → values in ABLATION_SETS order.
-PAPER_ABLATION = {1: (8.61, 4.29, 3.78, 3.82, 3.41, 2.56, 2.46), 2: (9.08, 4.54, 4.28, 4.65, 3.93, 3.10, 3.05),
-                  3: (9.90, 5.54, 4.91, 5.59, 4.88, 3.71, 3.55), 4: (11.16, 6.39, 5.93, 6.89, 5.42, 4.35, 4.24)}
+PAPER_ABLATION = {
+    1: (8.61, 4.29, 3.78, 3.82, 3.41, 2.56, 2.46),
+    2: (9.08, 4.54, 4.28, 4.65, 3.93, 3.10, 3.05),
+    3: (9.90, 5.54, 4.91, 5.59, 4.88, 3.71, 3.55),
+    4: (11.16, 6.39, 5.93, 6.89, 5.42, 4.35, 4.24),
+}
 _SPLIT_NAMES = {"eval_subset": "50-shape subset", "test": "test", "test_subjects": "unseen subjects"}
 
 
@@ -113,13 +174,26 @@ def _machine(device) -> str:
 
     if device.type == "cuda":
         return f"{torch.cuda.get_device_name(device)} (CUDA), torch {torch.__version__}"
-    return (f"CPU ({platform.machine()}, {os.cpu_count()} cores, {torch.get_num_threads()} torch threads), "
-            f"torch {torch.__version__}")
+    return (
+        f"CPU ({platform.machine()}, {os.cpu_count()} cores, {torch.get_num_threads()} torch threads), "
+        f"torch {torch.__version__}"
+    )
 
 
-def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool = True, figures: bool = True,
-              refine: bool = True, applications: bool = True, maps: bool = True, budget: Budget | None = None,
-              data_root=None, progress: bool | None = None) -> list[dict]:
+def reproduce(
+    preset: str = "quick",
+    out=None,
+    *,
+    device="auto",
+    ablation: bool = True,
+    figures: bool = True,
+    refine: bool = True,
+    applications: bool = True,
+    maps: bool = True,
+    budget: Budget | None = None,
+    data_root=None,
+    progress: bool | None = None,
+) -> list[dict]:
     """Reproduce the paper's Table 1 and ablation on the generated humans at ``preset``; returns the rows.
 
     Parameters
@@ -160,19 +234,28 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
 
     from tqdm.auto import tqdm
 
-    runs = tqdm(total=len(TABLE1) + len(OURS) + bool(applications) + (len(COMP) if maps else 0)
-                + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0),
-                desc="reproduce", unit="network", disable=progress is False)
+    runs = tqdm(
+        total=len(TABLE1)
+        + len(OURS)
+        + bool(applications)
+        + (len(COMP) if maps else 0)
+        + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0),
+        desc="reproduce",
+        unit="network",
+        disable=progress is False,
+    )
 
-    nets, histories, devices = table1_networks(coll, out, budget, pointnet=applications, device=device,
-                                               progress=progress, bar=runs)
+    nets, histories, devices = table1_networks(
+        coll, out, budget, pointnet=applications, device=device, progress=progress, bar=runs
+    )
     methods = [operatornet_method(nets[name], coll, name) for name in (*TABLE1, *OURS)]
     methods += [pointnet_method(nets[POINTNET], coll, POINTNET)] if applications else []
     for m in methods:
         m.info = dict(table="table1", **devices[m.name])
     if maps:
-        comp, comp_nets, comp_histories, comp_devices = comp_networks(coll, out, budget, device=device, bar=runs,
-                                                                      progress=progress, data_root=data_root)
+        comp, comp_nets, comp_histories, comp_devices = comp_networks(
+            coll, out, budget, device=device, bar=runs, progress=progress, data_root=data_root
+        )
         nets.update(comp_nets)
         histories.update(comp_histories)
         comp_methods = [operatornet_method(net, comp, name) for name, net in comp_nets.items()]
@@ -190,16 +273,33 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     rows += evaluate(comp, comp_methods, TEST_SETS, extra=info) if maps else []
     rows += evaluate(coll, matching, REFINE_SETS, extra=info)
     if maps:
-        rows += discretisation_rows(coll, {name: nets[name] for name in DISCRETISATION_NETWORKS}, budget, comp=comp,
-                                    data_root=data_root, progress=progress, out=out / "figures" if figures else None,
-                                    extra=info)
-    context = dict(preset=preset, budget=asdict(budget), machine=_machine(device), collection=repr(coll),
-                   splits={s: int(np.sum(coll.split == s)) for s in ("train", "val", "test", "test_subjects")},
-                   eval_subset=int(len(coll.eval_subset)))
+        rows += discretisation_rows(
+            coll,
+            {name: nets[name] for name in DISCRETISATION_NETWORKS},
+            budget,
+            comp=comp,
+            data_root=data_root,
+            progress=progress,
+            out=out / "figures" if figures else None,
+            extra=info,
+        )
+    context = dict(
+        preset=preset,
+        budget=asdict(budget),
+        machine=_machine(device),
+        collection=repr(coll),
+        splits={s: int(np.sum(coll.split == s)) for s in ("train", "val", "test", "test_subjects")},
+        eval_subset=int(len(coll.eval_subset)),
+    )
     _write(out, rows, context, time.perf_counter() - t_start)
     if figures:
-        _figures(out, coll, methods[0], baselines[0], {k.split(" ", 1)[1] if k.startswith("OperatorNet") else k: h
-                                                       for k, h in histories.items()})
+        _figures(
+            out,
+            coll,
+            methods[0],
+            baselines[0],
+            {k.split(" ", 1)[1] if k.startswith("OperatorNet") else k: h for k, h in histories.items()},
+        )
         if refine:
             _refinement_figures(out, coll, methods[0], budget, device)
     if applications:
@@ -210,8 +310,18 @@ def reproduce(preset: str = "quick", out=None, *, device="auto", ablation: bool 
     if ablation:
         for depth in ABLATION_DEPTHS:
             for label, channels in ABLATION_SETS.items():
-                net, _, run_info = _train(coll, out, budget, channels, depth, budget.ablation_epochs, "ablation",
-                                          device=device, progress=progress, bar=runs)
+                net, _, run_info = _train(
+                    coll,
+                    out,
+                    budget,
+                    channels,
+                    depth,
+                    budget.ablation_epochs,
+                    "ablation",
+                    device=device,
+                    progress=progress,
+                    bar=runs,
+                )
                 m = operatornet_method(net, coll, f"OperatorNet ({label}) depth {depth}")
                 m.info = dict(table="ablation", **run_info)
                 rows += evaluate(coll, [m], ("test",), extra=info)
@@ -233,50 +343,70 @@ def _train(coll, out, budget: Budget, channels, depth, epochs, tag, variant="pap
     run_dir = run_path(out, tag, channels, depth, variant)
     if bar is not None:
         bar.set_postfix_str(run_dir.name)
-    options = dict(architecture="pointnet") if variant == "pointnet" else dict(channels=channels, depth=depth,
-                                                                                variant=variant)
-    net, history = fit(coll, epochs=epochs, batch_size=budget.batch_size, lr=budget.lr, hidden=budget.hidden,
-                       device=device, run_dir=run_dir, progress=progress is True, **options)
+    options = (
+        dict(architecture="pointnet")
+        if variant == "pointnet"
+        else dict(channels=channels, depth=depth, variant=variant)
+    )
+    net, history = fit(
+        coll,
+        epochs=epochs,
+        batch_size=budget.batch_size,
+        lr=budget.lr,
+        hidden=budget.hidden,
+        device=device,
+        run_dir=run_dir,
+        progress=progress is True,
+        **options,
+    )
     if bar is not None:
         bar.update(1)
     trained_on = json.loads((run_dir / "config.json").read_text())["device"]  # a reused run may come from elsewhere
-    return net, history, dict(epochs=len(history), train_seconds=round(sum(e["seconds"] for e in history), 1),
-                              device=trained_on)
+    return (
+        net,
+        history,
+        dict(epochs=len(history), train_seconds=round(sum(e["seconds"] for e in history), 1), device=trained_on),
+    )
 
 
-def table1_networks(coll, out, budget: Budget, *, pointnet: bool = True, device="cpu", progress=None,
-                    bar=None) -> tuple[dict, dict, dict]:
+def table1_networks(
+    coll, out, budget: Budget, *, pointnet: bool = True, device="cpu", progress=None, bar=None
+) -> tuple[dict, dict, dict]:
     """Table 1's networks (:data:`TABLE1`, :data:`OURS` and, with ``pointnet``, :data:`POINTNET`), trained in
     ``out/runs/`` or loaded when already trained there: dicts name → network, name → history, name → run info
-    (``epochs``, ``train_seconds``, ``device``). :func:`reproduce` and the notebooks share them this way."""
+    (``epochs``, ``train_seconds``, ``device``). :func:`reproduce` and the notebooks share them this way.
+    """
     nets, histories, info = {}, {}, {}
     todo = [(name, channels, "paper", budget.epochs) for name, channels in TABLE1.items()]
     todo += [(name, channels, "ours", budget.epochs) for name, channels in OURS.items()]
     todo += [(POINTNET, None, "pointnet", budget.pointnet_epochs)] if pointnet else []
     for name, channels, variant, epochs in todo:
-        nets[name], histories[name], info[name] = _train(coll, out, budget, channels, 1, epochs, "table1", variant,
-                                                         device=device, progress=progress, bar=bar)
+        nets[name], histories[name], info[name] = _train(
+            coll, out, budget, channels, 1, epochs, "table1", variant, device=device, progress=progress, bar=bar
+        )
     return nets, histories, info
 
 
-def comp_networks(coll, out, budget: Budget, *, device="cpu", progress=None, bar=None,
-                  data_root=None) -> tuple:
+def comp_networks(coll, out, budget: Budget, *, device="cpu", progress=None, bar=None, data_root=None) -> tuple:
     """Table 1's "Comp" networks (:data:`COMP`), trained in ``out/runs/comp-*`` (or loaded when trained there) on
     ``comp = opnet.data.mapped_collection(coll, COMP_RESOLUTION)``: the same shapes, with operators through maps
     computed from their 2k-vertex meshes. Returns ``comp`` and, like :func:`table1_networks`, dicts name →
-    network, name → history, name → run info."""
+    network, name → history, name → run info.
+    """
     from .data import mapped_collection
 
     comp = mapped_collection(coll, COMP_RESOLUTION, "computed", root=data_root, progress=progress)
     nets, histories, info = {}, {}, {}
     for name, channels in COMP.items():
-        nets[name], histories[name], info[name] = _train(comp, out, budget, channels, 1, budget.epochs, "comp",
-                                                         device=device, progress=progress, bar=bar)
+        nets[name], histories[name], info[name] = _train(
+            comp, out, budget, channels, 1, budget.epochs, "comp", device=device, progress=progress, bar=bar
+        )
     return comp, nets, histories, info
 
 
-def discretisation_rows(coll, nets: dict, budget: Budget, *, comp=None, data_root=None, progress=None, out=None,
-                        extra: dict | None = None) -> list[dict]:
+def discretisation_rows(
+    coll, nets: dict, budget: Budget, *, comp=None, data_root=None, progress=None, out=None, extra: dict | None = None
+) -> list[dict]:
     """Reconstructions of test shapes given on other triangulations: rows with ``"table"`` ``"discretisation"``.
 
     At most ``budget.discretisation_shapes`` shapes of ``test`` (evenly spaced, :func:`discretisation_indices`) are
@@ -317,8 +447,11 @@ def _maps_of(mapped, coll, resolution: str, maps: str, k: int) -> bool:
     """Whether ``mapped`` is ``mapped_collection(coll, resolution, maps, k=k)`` (all of ``coll``'s shapes)."""
     meta, params = mapped.meta, mapped.params
     same_maps = (meta.get("map_resolution"), meta.get("maps"), meta.get("map_k")) == (resolution, maps, k)
-    return (same_maps and len(mapped) == len(coll)
-            and all(np.array_equal(params.get(key), coll.params.get(key)) for key in ("phenotypes", "controls")))
+    return (
+        same_maps
+        and len(mapped) == len(coll)
+        and all(np.array_equal(params.get(key), coll.params.get(key)) for key in ("phenotypes", "controls"))
+    )
 
 
 def discretisation_indices(coll, budget: Budget) -> np.ndarray:
@@ -332,7 +465,8 @@ def discretisation_figure(mapped, nets: dict, shapes: int = 3):
     from the base (the most deformed), on their own mesh through their maps onto the base, and each network's
     reconstruction (name → network) coloured by its error: a pyvista plotter
     (:func:`opnet.plotting.plot_mapped_reconstructions`; the maps are computed again, as they were for its operators:
-    seconds each)."""
+    seconds each).
+    """
     from .data import Collection
     from .data.bodies import human_faces
     from .data.generators import generate_shapes
@@ -378,29 +512,41 @@ def run_path(out, table: str, channels, depth: int = 1, variant: str = "paper") 
 def application_methods(coll, nets: dict, budget: Budget, *, refine: bool = True, device="cpu") -> list:
     """The applications' methods (:class:`opnet.apps.ShapeAlgebra`): Table 1's OperatorNet (Int+Ext) with the
     multiplicative and the linear algebra, our variant, the first + refinement (:data:`REFINE`, at most
-    ``budget.apps_refine_shapes`` shapes per kind), the PointNet AE and NN. ``nets``: Table 1's name → network."""
+    ``budget.apps_refine_shapes`` shapes per kind), the PointNet AE and NN. ``nets``: Table 1's name → network.
+    """
     from . import apps
 
     paper, ours = nets["OperatorNet (Int+Ext)"], nets[next(iter(OURS))]
-    methods = [apps.operatornet_algebra(paper, coll), apps.operatornet_algebra(paper, coll, scheme="linear"),
-               apps.operatornet_algebra(ours, coll, name="OperatorNet ours (mult.)")]
+    methods = [
+        apps.operatornet_algebra(paper, coll),
+        apps.operatornet_algebra(paper, coll, scheme="linear"),
+        apps.operatornet_algebra(ours, coll, name="OperatorNet ours (mult.)"),
+    ]
     if refine:
-        methods.append(apps.operatornet_algebra(paper, coll, refine=dict(REFINE, steps=budget.refine_steps, device=device),
-                                                max_shapes=budget.apps_refine_shapes))
+        methods.append(
+            apps.operatornet_algebra(
+                paper,
+                coll,
+                refine=dict(REFINE, steps=budget.refine_steps, device=device),
+                max_shapes=budget.apps_refine_shapes,
+            )
+        )
     return methods + [apps.pointnet_algebra(nets[POINTNET], coll), apps.nearest_neighbour_algebra(coll)]
 
 
 def applications_rows(coll, methods, budget: Budget, *, out=None, progress=None, seed: int = 0) -> list[dict]:
     """Run the ground-truth analogy (``budget.analogies`` questions per kind) and interpolation (``budget.paths``
     paths of 11 steps per kind) benchmarks of :mod:`opnet.apps`; rows get ``table`` ``"analogy"`` or
-    ``"interpolation"``. With ``out``, also writes ``interpolation_<kind>.png`` and ``analogy_<kind>.png`` there."""
+    ``"interpolation"``. With ``out``, also writes ``interpolation_<kind>.png`` and ``analogy_<kind>.png`` there.
+    """
     from . import apps
 
     quads = [apps.analogy_quadruples(coll, kind, budget.analogies, seed=seed) for kind in apps.ANALOGY_KINDS]
     paths = [apps.interpolation_paths(coll, kind, budget.paths, seed=seed) for kind in apps.PATH_KINDS]
     rows = [dict(r, table="analogy") for r in apps.analogy_benchmark(coll, methods, quads, progress=progress)]
-    rows += [dict(r, table="interpolation") for r in apps.interpolation_benchmark(coll, methods, paths,
-                                                                                   progress=progress)]
+    rows += [
+        dict(r, table="interpolation") for r in apps.interpolation_benchmark(coll, methods, paths, progress=progress)
+    ]
     if out is not None:
         _application_figures(Path(out), coll, methods, quads, paths)
     return [dict(r, preset=coll.meta.get("preset")) for r in rows]
@@ -414,14 +560,24 @@ def _application_figures(out: Path, coll, methods, quads, paths) -> None:
     out.mkdir(parents=True, exist_ok=True)
     for P in paths:
         i = int(np.argmax(d_R(P.truth[:, 0], P.truth[:, -1])))  # the path that moves most
-        plotter = plot_interpolations({m.name: m.interpolate(P.truth[i, 0], P.truth[i, -1], P.t) for m in methods},
-                                      coll.faces, P.t, truth=P.truth[i])
+        plotter = plot_interpolations(
+            {m.name: m.interpolate(P.truth[i, 0], P.truth[i, -1], P.t) for m in methods},
+            coll.faces,
+            P.t,
+            truth=P.truth[i],
+        )
         plotter.screenshot(str(out / f"interpolation_{P.kind}.png"))
         plotter.close()
     for Q in quads:
         q = min(3, len(Q))
-        plotter = plot_analogies(Q.A[:q], Q.B[:q], Q.C[:q], {m.name: m.analogy(Q.A[:q], Q.B[:q], Q.C[:q]) for m in methods},
-                                 coll.faces, truth=Q.X[:q])
+        plotter = plot_analogies(
+            Q.A[:q],
+            Q.B[:q],
+            Q.C[:q],
+            {m.name: m.analogy(Q.A[:q], Q.B[:q], Q.C[:q]) for m in methods},
+            coll.faces,
+            truth=Q.X[:q],
+        )
         plotter.screenshot(str(out / f"analogy_{Q.kind}.png"))
         plotter.close()
 
@@ -431,7 +587,7 @@ def ablation_table(rows) -> np.ndarray:
     table = np.full((len(ABLATION_DEPTHS), len(ABLATION_SETS)), np.nan)
     for r in rows:
         if r.get("table") == "ablation":
-            label = r["method"][len("OperatorNet ("):].split(")")[0]
+            label = r["method"][len("OperatorNet (") :].split(")")[0]
             table[ABLATION_DEPTHS.index(r["depth"]), list(ABLATION_SETS).index(label)] = 1e4 * r["d_R"]
     return table
 
@@ -439,8 +595,11 @@ def ablation_table(rows) -> np.ndarray:
 def _ablation_figure(rows):
     from .plotting import plot_ablation
 
-    return plot_ablation(ablation_table(rows), [f"Conv. {'×'.join(str(8 * 2**i) for i in range(d))}"
-                                                for d in ABLATION_DEPTHS], list(ABLATION_SETS))
+    return plot_ablation(
+        ablation_table(rows),
+        [f"Conv. {'×'.join(str(8 * 2**i) for i in range(d))}" for d in ABLATION_DEPTHS],
+        list(ABLATION_SETS),
+    )
 
 
 def _fmt(v, scale=1.0, digits=3) -> str:
@@ -456,29 +615,44 @@ def _write(out: Path, rows: list[dict], context: dict, seconds: float) -> None:
 def results_markdown(rows: list[dict], context: dict) -> str:
     """``results.md``: Table 1 (per test set, with the paper's numbers), the targets, and the ablation."""
     b = context["budget"]
-    lines = [f"# OperatorNet reproduction · preset `{context['preset']}`", "",
-             f"Machine: {context['machine']}. Wall time so far: {context['wall_seconds']:.0f} s "
-             "(data, training, evaluation; finished runs are reused, so a resumed call counts only what it did).", "",
-             f"Data: {context['collection']}; the 50-shape evaluation subset has {context['eval_subset']} shapes.", "",
-             f"Training: Adam, lr {b['lr']}, batch {b['batch_size']}, {b['epochs']} epochs for Table 1's OperatorNets "
-             f"({b.get('pointnet_epochs', b['epochs'])} for the PointNet AE) and {b['ablation_epochs']} for the ablation (fewer, to keep the 28-network grid affordable); model "
-             "selection on `val`. The paper's numbers are on DFAUST, ours on `anny` humans: the scale (metres) is "
-             "alike, the data are not the same.", "",
-             "## Table 1: shape reconstruction", "",
-             "d_R ×10⁻⁴ (m²), mean (median in brackets).", ""]
+    lines = [
+        f"# OperatorNet reproduction · preset `{context['preset']}`",
+        "",
+        f"Machine: {context['machine']}. Wall time so far: {context['wall_seconds']:.0f} s "
+        "(data, training, evaluation; finished runs are reused, so a resumed call counts only what it did).",
+        "",
+        f"Data: {context['collection']}; the 50-shape evaluation subset has {context['eval_subset']} shapes.",
+        "",
+        f"Training: Adam, lr {b['lr']}, batch {b['batch_size']}, {b['epochs']} epochs for Table 1's OperatorNets "
+        f"({b.get('pointnet_epochs', b['epochs'])} for the PointNet AE) and {b['ablation_epochs']} for the ablation "
+        "(fewer, to keep the 28-network grid affordable); model "
+        "selection on `val`. The paper's numbers are on DFAUST, ours on `anny` humans: the scale (metres) is "
+        "alike, the data are not the same.",
+        "",
+        "## Table 1: shape reconstruction",
+        "",
+        "d_R ×10⁻⁴ (m²), mean (median in brackets).",
+        "",
+    ]
     t1 = [r for r in rows if r.get("table") == "table1"]
     methods = list(dict.fromkeys(r["method"] for r in t1))
     splits = [s for s in TEST_SETS if any(r["split"] == s for r in t1)]
-    head = "| method | " + " | ".join(f"{_SPLIT_NAMES[s]}: d_R | d_V | d_E" for s in splits) + \
-        " | paper d_R | d_V | d_E | train s | s/shape |"
+    head = (
+        "| method | "
+        + " | ".join(f"{_SPLIT_NAMES[s]}: d_R | d_V | d_E" for s in splits)
+        + " | paper d_R | d_V | d_E | train s | s/shape |"
+    )
     lines += [head, "|---" * (2 + 3 * len(splits) + 4) + "|"]
     subsampled = {}
     for m in methods:
         cells = []
         for s in splits:
             r = next((r for r in t1 if r["method"] == m and r["split"] == s), None)
-            cells += [f"{_fmt(r['d_R'], 1e4)} ({_fmt(r['d_R_median'], 1e4)})", _fmt(r["d_V"]), _fmt(r["d_E"])] \
-                if r else ["–"] * 3
+            cells += (
+                [f"{_fmt(r['d_R'], 1e4)} ({_fmt(r['d_R_median'], 1e4)})", _fmt(r["d_V"]), _fmt(r["d_E"])]
+                if r
+                else ["–"] * 3
+            )
             full = next((q["n_shapes"] for q in t1 if q["split"] == s and q["method"] == methods[0]), None)
             if r and full is not None and r["n_shapes"] < full:
                 subsampled.setdefault(m, []).append(f"{r['n_shapes']} of the {full} shapes of {_SPLIT_NAMES[s]}")
@@ -486,38 +660,67 @@ def results_markdown(rows: list[dict], context: dict) -> str:
         mine = [r for r in t1 if r["method"] == m]
         secs = mine[0]["train_seconds"]
         per_shape = np.mean([r["seconds_per_shape"] for r in mine if "seconds_per_shape" in r] or [np.nan])
-        lines.append(f"| {m} | " + " | ".join(cells) + " | " + " | ".join("–" if p is None else f"{p:g}" for p in paper)
-                     + f" | {'–' if secs is None else f'{secs:.0f}'} | {_fmt(per_shape, digits=2)} |")
-    lines += ["", "s/shape: the method's wall time per reconstructed shape (decoding, search or optimisation; not "
-              "training)."]
+        lines.append(
+            f"| {m} | "
+            + " | ".join(cells)
+            + " | "
+            + " | ".join("–" if p is None else f"{p:g}" for p in paper)
+            + f" | {'–' if secs is None else f'{secs:.0f}'} | {_fmt(per_shape, digits=2)} |"
+        )
+    lines += [
+        "",
+        "s/shape: the method's wall time per reconstructed shape (decoding, search or optimisation; not training).",
+    ]
     for m, where in subsampled.items():
-        lines.append(f"{m}: evaluated on {', '.join(where)} (evenly spaced, to bound the optimisation's time; "
-                     "`Budget.refine_shapes`).")
+        lines.append(
+            f"{m}: evaluated on {', '.join(where)} (evenly spaced, to bound the optimisation's time; "
+            "`Budget.refine_shapes`)."
+        )
     lines += ["", "## Targets", ""] + _targets(t1)
     table = ablation_table(rows)
     if np.isfinite(table).any():
         cols = list(ABLATION_SETS)
-        lines += ["", "## Ablation (Appendix B): d_R ×10⁻⁴ on `test`", "",
-                  f"Each network trained {b['ablation_epochs']} epochs (Table 1's have {b['epochs']}).", "",
-                  "| encoder | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+        lines += [
+            "",
+            "## Ablation (Appendix B): d_R ×10⁻⁴ on `test`",
+            "",
+            f"Each network trained {b['ablation_epochs']} epochs (Table 1's have {b['epochs']}).",
+            "",
+            "| encoder | " + " | ".join(cols) + " |",
+            "|---" * (len(cols) + 1) + "|",
+        ]
         for i, d in enumerate(ABLATION_DEPTHS):
             best = np.nanargmin(table[i]) if np.isfinite(table[i]).any() else -1
             cells = [f"**{_fmt(v)}**" if j == best else _fmt(v) for j, v in enumerate(table[i])]
             lines.append(f"| Conv. {'×'.join(str(8 * 2**k) for k in range(d))} | " + " | ".join(cells) + " |")
-        lines += ["", "The paper's (DFAUST):", "", "| encoder | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+        lines += [
+            "",
+            "The paper's (DFAUST):",
+            "",
+            "| encoder | " + " | ".join(cols) + " |",
+            "|---" * (len(cols) + 1) + "|",
+        ]
         for d, vals in PAPER_ABLATION.items():
-            lines.append(f"| Conv. {'×'.join(str(8 * 2**k) for k in range(d))} | " + " | ".join(f"{v:g}" for v in vals) + " |")
+            lines.append(
+                f"| Conv. {'×'.join(str(8 * 2**k) for k in range(d))} | " + " | ".join(f"{v:g}" for v in vals) + " |"
+            )
         done = table[:, -1]
         nn = next((r["d_R"] for r in t1 if r["method"] == "Nearest neighbour (Int+Ext)" and r["split"] == "test"), None)
         if nn is not None and np.nanmin(table) > 0.5e4 * nn:
-            lines += ["", f"**Caveat:** with {b['ablation_epochs']} epochs at this preset the ablation networks are barely "
-                      f"trained (every cell is above half of NN's {_fmt(nn, 1e4)}), so the differences between cells are "
-                      "mostly noise: this table shows the pipeline, not the paper's trends. Use a larger preset."]
+            lines += [
+                "",
+                f"**Caveat:** with {b['ablation_epochs']} epochs at this preset the ablation networks are barely "
+                f"trained (every cell is above half of NN's {_fmt(nn, 1e4)}), so the differences between cells are "
+                "mostly noise: this table shows the pipeline, not the paper's trends. Use a larger preset.",
+            ]
         if np.isfinite(table).all():
             best_col = np.mean(np.argmin(table, axis=1) == len(cols) - 1)
-            lines += ["", f"All three operators give the best column in {best_col:.0%} of the depths (the paper: 100 %); "
-                      f"depth 1 is {'the best' if np.argmin(done) == 0 else 'not the best'} for A+E+C "
-                      f"({', '.join(_fmt(v) for v in done)} for depths 1–4)."]
+            lines += [
+                "",
+                f"All three operators give the best column in {best_col:.0%} of the depths (the paper: 100 %); "
+                f"depth 1 is {'the best' if np.argmin(done) == 0 else 'not the best'} for A+E+C "
+                f"({', '.join(_fmt(v) for v in done)} for depths 1–4).",
+            ]
     lines += discretisation_markdown(rows)
     lines += applications_markdown(rows)
     return "\n".join(lines) + "\n"
@@ -531,31 +734,50 @@ def discretisation_markdown(rows: list[dict]) -> list[str]:
     nets = list(dict.fromkeys(r["method"] for r in disc))
     encodings = list(dict.fromkeys((r["resolution"], r["maps"]) for r in disc))
     get = {(r["resolution"], r["maps"], r["method"]): r for r in disc}
-    lines = ["", "## Other triangulations: test shapes on 2k and 5k meshes", "",
-             f"{disc[0]['n_shapes']} `test` shapes (evenly spaced) generated on each mesh, mapped onto the 1k base "
-             "by the generator's true correspondence or by a computed map (`opnet.matching.compute_map`), encoded "
-             "through the map and decoded by each network; d_R ×10⁻⁴ against the 1k shapes (median in brackets). "
-             "Map error: mean distance between where the computed and the true map send a vertex. *1k exact*: the "
-             "same shapes' own operators.", "",
-             "| mesh | map | map error (cm) | " + " | ".join(nets) + " |", "|---" * (3 + len(nets)) + "|"]
+    lines = [
+        "",
+        "## Other triangulations: test shapes on 2k and 5k meshes",
+        "",
+        f"{disc[0]['n_shapes']} `test` shapes (evenly spaced) generated on each mesh, mapped onto the 1k base "
+        "by the generator's true correspondence or by a computed map (`opnet.matching.compute_map`), encoded "
+        "through the map and decoded by each network; d_R ×10⁻⁴ against the 1k shapes (median in brackets). "
+        "Map error: mean distance between where the computed and the true map send a vertex. *1k exact*: the "
+        "same shapes' own operators.",
+        "",
+        "| mesh | map | map error (cm) | " + " | ".join(nets) + " |",
+        "|---" * (3 + len(nets)) + "|",
+    ]
     for res, maps in encodings:
         first = get[res, maps, nets[0]]
-        cells = [f"{_fmt(get[res, maps, n]['d_R'], 1e4)} ({_fmt(get[res, maps, n]['d_R_median'], 1e4)})"
-                 if (res, maps, n) in get else "–" for n in nets]
+        cells = [
+            f"{_fmt(get[res, maps, n]['d_R'], 1e4)} ({_fmt(get[res, maps, n]['d_R_median'], 1e4)})"
+            if (res, maps, n) in get
+            else "–"
+            for n in nets
+        ]
         error = "–" if maps == "exact" else f"{100 * first['map_error']:.2f}"
         lines.append(f"| {res} | {maps} | {error} | " + " | ".join(cells) + " |")
     exact = get.get(("1k", "exact", "OperatorNet (Int+Ext)"))
     fine = [get[key] for key in get if key[:2] == ("5k", "computed")]
     if exact is not None and fine:
-        lines += ["", f"**Target:** 5k → 1k through computed maps within 3× of OperatorNet (Int+Ext)'s error on the "
-                  f"exact 1k operators of the same shapes ({_fmt(exact['d_R'], 1e4)}), for each network:", ""]
-        lines += [f"- {r['method']}: {_fmt(r['d_R'], 1e4)}, {r['d_R'] / exact['d_R']:.1f}×: "
-                  f"{'met' if r['d_R'] <= 3 * exact['d_R'] else 'missed'}." for r in fine]
+        lines += [
+            "",
+            f"**Target:** 5k → 1k through computed maps within 3× of OperatorNet (Int+Ext)'s error on the "
+            f"exact 1k operators of the same shapes ({_fmt(exact['d_R'], 1e4)}), for each network:",
+            "",
+        ]
+        lines += [
+            f"- {r['method']}: {_fmt(r['d_R'], 1e4)}, {r['d_R'] / exact['d_R']:.1f}×: "
+            f"{'met' if r['d_R'] <= 3 * exact['d_R'] else 'missed'}."
+            for r in fine
+        ]
     return lines
 
 
-_KIND_NAMES = {"analogy": {"pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)", "body": "body transfer (a,p):(b,p)::(a,q):(b,q)"},
-               "interpolation": {"pose": "one subject, pose to pose", "body": "one pose, subject to subject"}}
+_KIND_NAMES = {
+    "analogy": {"pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)", "body": "body transfer (a,p):(b,p)::(a,q):(b,q)"},
+    "interpolation": {"pose": "one subject, pose to pose", "body": "one pose, subject to subject"},
+}
 
 
 def applications_markdown(rows: list[dict]) -> list[str]:
@@ -564,30 +786,50 @@ def applications_markdown(rows: list[dict]) -> list[str]:
     itp = [r for r in rows if r.get("table") == "interpolation"]
     if not ana and not itp:
         return []
-    lines = ["", "## Applications: analogy and interpolation against ground truth", "",
-             "Subjects from `test_subjects`, poses from the `test` sequences; the true shapes are generated from the "
-             "generator's parameters (`opnet.apps`). d_R ×10⁻⁴ (median in brackets). *direct*: the same method on "
-             "X given X itself (its floor: the rest is the algebra's error)."]
+    lines = [
+        "",
+        "## Applications: analogy and interpolation against ground truth",
+        "",
+        "Subjects from `test_subjects`, poses from the `test` sequences; the true shapes are generated from the "
+        "generator's parameters (`opnet.apps`). d_R ×10⁻⁴ (median in brackets). *direct*: the same method on "
+        "X given X itself (its floor: the rest is the algebra's error).",
+    ]
     for kind in dict.fromkeys(r["kind"] for r in ana):
         part = [r for r in ana if r["kind"] == kind]
-        lines += ["", f"**Analogy, {_KIND_NAMES['analogy'].get(kind, kind)}** ({part[0]['n']} questions)", "",
-                  "| method | n | d_R | d_V | d_E | direct d_R |", "|---|---|---|---|---|---|"]
+        lines += [
+            "",
+            f"**Analogy, {_KIND_NAMES['analogy'].get(kind, kind)}** ({part[0]['n']} questions)",
+            "",
+            "| method | n | d_R | d_V | d_E | direct d_R |",
+            "|---|---|---|---|---|---|",
+        ]
         for r in part:
             before = f" (before: {_fmt(r['d_R_before'], 1e4)})" if "d_R_before" in r else ""
-            lines.append(f"| {r['method']} | {r['n']} | {_fmt(r['d_R'], 1e4)} ({_fmt(r['d_R_median'], 1e4)}){before} | "
-                         f"{_fmt(r['d_V'])} | {_fmt(r['d_E'])} | {_fmt(r['d_R_direct'], 1e4)} |")
+            lines.append(
+                f"| {r['method']} | {r['n']} | {_fmt(r['d_R'], 1e4)} ({_fmt(r['d_R_median'], 1e4)}){before} | "
+                f"{_fmt(r['d_V'])} | {_fmt(r['d_E'])} | {_fmt(r['d_R_direct'], 1e4)} |"
+            )
     for kind in dict.fromkeys(r["kind"] for r in itp):
         part = [r for r in itp if r["kind"] == kind]
-        lines += ["", f"**Interpolation, {_KIND_NAMES['interpolation'].get(kind, kind)}** ({part[0]['n_paths']} paths of "
-                  f"{part[0]['steps']} steps)", "",
-                  "| method | paths | endpoints d_R | in-between d_R | edge distortion | smoothness (worst) |",
-                  "|---|---|---|---|---|---|"]
+        lines += [
+            "",
+            f"**Interpolation, {_KIND_NAMES['interpolation'].get(kind, kind)}** ({part[0]['n_paths']} paths of "
+            f"{part[0]['steps']} steps)",
+            "",
+            "| method | paths | endpoints d_R | in-between d_R | edge distortion | smoothness (worst) |",
+            "|---|---|---|---|---|---|",
+        ]
         for r in part:
-            lines.append(f"| {r['method']} | {r['n_paths']} | {_fmt(r['endpoint_d_R'], 1e4)} | {_fmt(r['d_R_truth'], 1e4)} | "
-                         f"{_fmt(r['distortion'])} | {_fmt(r['smoothness'])} ({_fmt(r['smoothness_max'])}) |")
+            lines.append(
+                f"| {r['method']} | {r['n_paths']} | {_fmt(r['endpoint_d_R'], 1e4)} | {_fmt(r['d_R_truth'], 1e4)} | "
+                f"{_fmt(r['distortion'])} | {_fmt(r['smoothness'])} ({_fmt(r['smoothness_max'])}) |"
+            )
     if itp:
-        lines += ["", f"Edge distortion: the largest mean relative edge-length error against the nearer true endpoint; "
-                  f"smoothness: the largest step over the path length ({1 / (itp[0]['steps'] - 1):.2f} for even steps)."]
+        lines += [
+            "",
+            f"Edge distortion: the largest mean relative edge-length error against the nearer true endpoint; "
+            f"smoothness: the largest step over the path length ({1 / (itp[0]['steps'] - 1):.2f} for even steps).",
+        ]
     targets = []
     for kind in dict.fromkeys(r["kind"] for r in ana):
         get = {r["method"]: r["d_R"] for r in ana if r["kind"] == kind}
@@ -596,8 +838,10 @@ def applications_markdown(rows: list[dict]) -> list[str]:
         if ours is not None and others:
             met = all(v > ours for v in others.values())
             ratios = ", ".join(f"{m} / OperatorNet = {v / ours:.2f}" for m, v in others.items())
-            targets.append(f"- analogy, {kind}: {ratios} (target: OperatorNet (mult.) beats both at `default`): "
-                           f"{'met' if met else 'missed'}.")
+            targets.append(
+                f"- analogy, {kind}: {ratios} (target: OperatorNet (mult.) beats both at `default`): "
+                f"{'met' if met else 'missed'}."
+            )
     return lines + (["", "**Targets**", ""] + targets if targets else [])
 
 
@@ -610,36 +854,48 @@ def _targets(t1: list[dict]) -> list[str]:
         ours, nn = get("OperatorNet (Int+Ext)", split), get("Nearest neighbour (Int+Ext)", split)
         if ours is not None and nn is not None:
             ratio = nn / ours
-            lines.append(f"- {_SPLIT_NAMES[split]}: NN's d_R / OperatorNet (Int+Ext)'s = {ratio:.1f} "
-                         f"({_fmt(nn, 1e4)} vs {_fmt(ours, 1e4)} ×10⁻⁴; target ≥ 10 at `default`, the paper 23): "
-                         f"{'met' if ratio >= 10 else 'missed'}.")
+            lines.append(
+                f"- {_SPLIT_NAMES[split]}: NN's d_R / OperatorNet (Int+Ext)'s = {ratio:.1f} "
+                f"({_fmt(nn, 1e4)} vs {_fmt(ours, 1e4)} ×10⁻⁴; target ≥ 10 at `default`, the paper 23): "
+                f"{'met' if ratio >= 10 else 'missed'}."
+            )
     dv, de = get("OperatorNet (Int+Ext)", "test", "d_V"), get("OperatorNet (Int+Ext)", "test", "d_E")
     if dv is not None:
-        lines.append(f"- test: d_V {_fmt(dv)} (target ≤ 0.014: {'met' if dv <= 0.014 else 'missed'}), "
-                     f"d_E {_fmt(de)} (target ≤ 0.045: {'met' if de <= 0.045 else 'missed'}).")
+        lines.append(
+            f"- test: d_V {_fmt(dv)} (target ≤ 0.014: {'met' if dv <= 0.014 else 'missed'}), "
+            f"d_E {_fmt(de)} (target ≤ 0.045: {'met' if de <= 0.045 else 'missed'})."
+        )
     paper, ours = get("OperatorNet (Int+Ext)", "test"), get(next(iter(OURS)), "test")
     if paper is not None and ours is not None:
-        lines.append(f"- test: OperatorNet (Int+Ext)'s d_R / ours = {paper / ours:.2f} ({_fmt(paper, 1e4)} vs "
-                     f"{_fmt(ours, 1e4)} ×10⁻⁴; target ≥ 1.5 at `default`): {'met' if paper / ours >= 1.5 else 'missed'}.")
+        lines.append(
+            f"- test: OperatorNet (Int+Ext)'s d_R / ours = {paper / ours:.2f} ({_fmt(paper, 1e4)} vs "
+            f"{_fmt(ours, 1e4)} ×10⁻⁴; target ≥ 1.5 at `default`): {'met' if paper / ours >= 1.5 else 'missed'}."
+        )
     for name in ("OperatorNet (Int+Ext)", next(iter(OURS))):
         refined, before = get(f"{name} + refinement", "test"), get(f"{name} + refinement", "test", "d_R_before")
         if refined is not None and before is not None:
-            lines.append(f"- test: refinement changes {name}'s d_R by {100 * (refined / before - 1):+.0f} % "
-                         f"({_fmt(before, 1e4)} → {_fmt(refined, 1e4)} ×10⁻⁴ on the same shapes).")
+            lines.append(
+                f"- test: refinement changes {name}'s d_R by {100 * (refined / before - 1):+.0f} % "
+                f"({_fmt(before, 1e4)} → {_fmt(refined, 1e4)} ×10⁻⁴ on the same shapes)."
+            )
     truth = get("OperatorNet (Int+Ext)", "test")
     for name, channels in COMP.items():
         comp, same = get(name, "test"), get(f"OperatorNet ({channel_label(channels)})", "test")
         if comp is not None and truth is not None:
             paper = PAPER_TABLE1[name][0] / PAPER_TABLE1["OperatorNet (Int+Ext)"][0]
             alike = f"; {comp / same:.1f}× OperatorNet ({channel_label(channels)})'s" if same is not None else ""
-            lines.append(f"- test: {name}'s d_R / OperatorNet (Int+Ext)'s (ground-truth maps) = {comp / truth:.1f} "
-                         f"({_fmt(comp, 1e4)} vs {_fmt(truth, 1e4)} ×10⁻⁴; target ≤ 5 at `default`, the paper "
-                         f"{paper:.1f}{alike}): {'met' if comp / truth <= 5 else 'missed'}.")
+            lines.append(
+                f"- test: {name}'s d_R / OperatorNet (Int+Ext)'s (ground-truth maps) = {comp / truth:.1f} "
+                f"({_fmt(comp, 1e4)} vs {_fmt(truth, 1e4)} ×10⁻⁴; target ≤ 5 at `default`, the paper "
+                f"{paper:.1f}{alike}): {'met' if comp / truth <= 5 else 'missed'}."
+            )
     order = [get(f"OperatorNet ({c})", "test") for c in ("Int+Ext", "Ext", "Int")]
     if None not in order:
         holds = order[0] < order[1] < order[2]
-        lines.append(f"- ordering Int+Ext < Ext < Int on test (the paper's): {'holds' if holds else 'does not hold'} "
-                     f"({' / '.join(_fmt(v, 1e4) for v in order)}).")
+        lines.append(
+            f"- ordering Int+Ext < Ext < Int on test (the paper's): {'holds' if holds else 'does not hold'} "
+            f"({' / '.join(_fmt(v, 1e4) for v in order)})."
+        )
     return lines
 
 
@@ -660,9 +916,12 @@ def _figures(out: Path, coll, ours, nn, histories: dict) -> None:
         if len(idx) == 0:
             continue
         pick = evenly_spaced(idx, 3)
-        plotter = plot_reconstructions(coll.vertices[pick], {ours.name: ours.reconstruct(pick),
-                                                             "NN": nn.reconstruct(pick)}, coll.faces,
-                                       titles=[str(coll.subcollection[i]) for i in pick])
+        plotter = plot_reconstructions(
+            coll.vertices[pick],
+            {ours.name: ours.reconstruct(pick), "NN": nn.reconstruct(pick)},
+            coll.faces,
+            titles=[str(coll.subcollection[i]) for i in pick],
+        )
         plotter.screenshot(str(fig_dir / f"reconstructions_{split}.png"))
         plotter.close()
 
@@ -671,7 +930,8 @@ def refinement_curves(coll, idx, inits: dict, steps: int, snapshot_steps=(), *, 
     """Run :func:`opnet.reconstruct` (settings :data:`REFINE`) on shapes ``idx`` from each start in ``inits``
     (name → ``"base"`` or vertices ``(len(idx), n, 3)``), recording after every step the mean relative operator
     mismatch and the mean ``d_R``. Returns ``curves`` (name → ``step``, ``mismatch``, ``d_R`` lists, for
-    :func:`opnet.plotting.plot_refinement_curves`) and ``snapshots`` (name → step → vertices of the first shape)."""
+    :func:`opnet.plotting.plot_refinement_curves`) and ``snapshots`` (name → step → vertices of the first shape).
+    """
     from .geometric import reconstruct
     from .metrics import d_R
 
@@ -687,8 +947,17 @@ def refinement_curves(coll, idx, inits: dict, steps: int, snapshot_steps=(), *, 
             if step in snapshot_steps:
                 snap[step] = X[0].cpu().numpy()
 
-        reconstruct(coll.operators[idx][:, _select(REFINE["channels"])], coll.base_basis, init=init, steps=steps, callback=record,
-                    progress=False, batch_size=len(idx), device=device, **REFINE)  # one batch: one curve
+        reconstruct(
+            coll.operators[idx][:, _select(REFINE["channels"])],
+            coll.base_basis,
+            init=init,
+            steps=steps,
+            callback=record,
+            progress=False,
+            batch_size=len(idx),
+            device=device,
+            **REFINE,
+        )  # one batch: one curve
         curves[name], snapshots[name] = c, snap
     return curves, snapshots
 
@@ -700,7 +969,8 @@ def snapshot_steps(steps: int) -> list[int]:
 
 def _refinement_figures(out: Path, coll, net_method, budget: Budget, device) -> None:
     """``refinement_curves.png`` (mismatch and d_R over the steps, from the base and from the network, on up to 8
-    test shapes) and ``refinement_steps.png`` (one shape after 0, 10, 100... steps, coloured by error)."""
+    test shapes) and ``refinement_steps.png`` (one shape after 0, 10, 100... steps, coloured by error).
+    """
     import matplotlib.pyplot as plt
 
     from .plotting import headless, plot_reconstructions, plot_refinement_curves
@@ -708,15 +978,21 @@ def _refinement_figures(out: Path, coll, net_method, budget: Budget, device) -> 
     idx = test_set_indices(coll, "test")
     idx = evenly_spaced(idx, 8)
     shown = snapshot_steps(budget.refine_steps)
-    curves, snaps = refinement_curves(coll, idx, {"from the base (geometric)": "base",
-                                                  f"from {net_method.name}": net_method.reconstruct(idx)},
-                                      budget.refine_steps, shown, device=device)
+    curves, snaps = refinement_curves(
+        coll,
+        idx,
+        {"from the base (geometric)": "base", f"from {net_method.name}": net_method.reconstruct(idx)},
+        budget.refine_steps,
+        shown,
+        device=device,
+    )
     fig = plot_refinement_curves(curves)
     fig.savefig(out / "figures" / "refinement_curves.png", dpi=120)
     plt.close(fig)
     headless()
     name = f"from {net_method.name}"
-    plotter = plot_reconstructions(coll.vertices[idx[:1]], {f"step {s}": snaps[name][s][None] for s in shown},
-                                   coll.faces, titles=["refined"])
+    plotter = plot_reconstructions(
+        coll.vertices[idx[:1]], {f"step {s}": snaps[name][s][None] for s in shown}, coll.faces, titles=["refined"]
+    )
     plotter.screenshot(str(out / "figures" / "refinement_steps.png"))
     plotter.close()

@@ -10,6 +10,7 @@ Two ways to evaluate ``Cᵀ K_i C``:
   :func:`shape_difference` does when ``fmap`` is omitted, and what
   :func:`shape_differences` does for a whole collection at once.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -17,9 +18,9 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
+from ._checks import check_int, real_array
 from .fmaps import FunctionalMap
 from .inner_products import checked_gram, get_inner_product, get_inner_products
-from ._checks import check_int, real_array
 from .mesh import Mesh, check_shapes
 from .spectral import Eigenbasis
 
@@ -48,8 +49,10 @@ def pinv_psd(K: np.ndarray, rtol: float | None = None) -> np.ndarray:
     rtol = 10 * len(K) * np.finfo(float).eps if rtol is None else rtol
     w, U = np.linalg.eigh(K)
     if w.size and w.min() < -1e-6 * np.abs(w).max():
-        raise NotPositiveError(f"the matrix is not positive semi-definite (eigenvalue {w.min():.3g}, largest "
-                               f"{w.max():.3g}); an inner product's Φᵀ M Φ must be, so M must be.")
+        raise NotPositiveError(
+            f"the matrix is not positive semi-definite (eigenvalue {w.min():.3g}, largest "
+            f"{w.max():.3g}); an inner product's Φᵀ M Φ must be, so M must be."
+        )
     keep = w > rtol * max(w.max(), 0.0)
     return (U[:, keep] / w[keep]) @ U[:, keep].T
 
@@ -94,8 +97,10 @@ def shape_difference(base_basis: Eigenbasis, target, kind="area", fmap: Function
     ip = get_inner_product(kind)
     base = base_basis.mesh
     if isinstance(target, (str, Path)):
-        raise TypeError(f"target must be an opnet.Mesh or coordinates ({base.n_vertices}, 3), got the path {target!r}; "
-                        "read the file with opnet.load_mesh(path).")
+        raise TypeError(
+            f"target must be an opnet.Mesh or coordinates ({base.n_vertices}, 3), got the path {target!r}; "
+            "read the file with opnet.load_mesh(path)."
+        )
     if not isinstance(target, Mesh):
         target = base.with_vertices(target)
     if fmap is None:
@@ -111,8 +116,12 @@ def shape_difference(base_basis: Eigenbasis, target, kind="area", fmap: Function
         if fmap.source is not base_basis:
             raise ValueError("fmap.source is not base_basis: build the functional map from this base eigenbasis.")
         t = fmap.target.mesh
-        if t is not target and not (np.array_equal(t.vertices, target.vertices) and np.array_equal(t.faces, target.faces)):
-            raise ValueError("fmap.target is the eigenbasis of another mesh than target; pass the mesh the map goes to.")
+        if t is not target and not (
+            np.array_equal(t.vertices, target.vertices) and np.array_equal(t.faces, target.faces)
+        ):
+            raise ValueError(
+                "fmap.target is the eigenbasis of another mesh than target; pass the mesh the map goes to."
+            )
         C = fmap.matrix
         Ki = C.T @ checked_gram(ip, "project", t.vertices, t.faces, fmap.target.evecs) @ C
     return base_pinvs(base_basis, [ip])[0] @ Ki
@@ -154,10 +163,12 @@ def shape_differences(
     return fast_path(base_basis, vertices, ips, batch_size=batch_size, progress=progress)
 
 
-def fast_path(base_basis: Eigenbasis, vertices: np.ndarray, ips: list, *, batch_size: int = 64,
-              progress: bool | None = False) -> np.ndarray:
+def fast_path(
+    base_basis: Eigenbasis, vertices: np.ndarray, ips: list, *, batch_size: int = 64, progress: bool | None = False
+) -> np.ndarray:
     """:func:`shape_differences` of shapes already checked (float64 ``(B, n, 3)``, valid faces), for inner
-    products ``ips``; for callers that validated their input once already."""
+    products ``ips``; for callers that validated their input once already.
+    """
     phi, faces = base_basis.evecs, base_basis.mesh.faces
     k0_pinv = base_pinvs(base_basis, ips)
     out = np.empty((len(vertices), len(ips), base_basis.k, base_basis.k))

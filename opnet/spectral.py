@@ -5,6 +5,7 @@ potpourri3d (see :attr:`opnet.Mesh.stiffness`). Collections that share one
 connectivity use :func:`cotan_edge_weights` and :func:`vertex_areas`, which evaluate
 the same quantities for a whole batch of coordinates at once with numpy.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -86,10 +87,14 @@ def eigenbasis(mesh: Mesh, k: int) -> Eigenbasis:
     same for any scale of the mesh. ``k = n`` (a full basis) uses a dense solver.
     """
     if not isinstance(mesh, Mesh):
-        raise TypeError(f"eigenbasis expects an opnet.Mesh, got {type(mesh).__name__}; wrap arrays as opnet.Mesh(vertices, faces).")
+        raise TypeError(
+            f"eigenbasis expects an opnet.Mesh, got {type(mesh).__name__}; wrap arrays as opnet.Mesh(vertices, faces)."
+        )
     n = mesh.n_vertices
     if not isinstance(k, (int, np.integer)) or not 1 <= k <= n:
-        raise ValueError(f"k must be an integer in [1, n={n}] for this mesh, got {k!r}; use a finer mesh for more eigenpairs.")
+        raise ValueError(
+            f"k must be an integer in [1, n={n}] for this mesh, got {k!r}; use a finer mesh for more eigenpairs."
+        )
     k = int(k)
     total = mesh.area
     a = mesh.mass / total  # unit total area
@@ -128,8 +133,9 @@ def eigenbasis(mesh: Mesh, k: int) -> Eigenbasis:
 
 # ---- batched weights for collections sharing one connectivity ---------------------------------------
 
+
 def _corner_cotangents(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """cot of each corner angle, ``(..., m, 3)``; corner c is opposite the edge (c+1, c+2)."""
+    """Cot of each corner angle, ``(..., m, 3)``; corner c is opposite the edge (c+1, c+2)."""
     v = vertices[..., faces, :]  # (..., m, 3, 3)
     double_area = 2.0 * triangle_areas(v)  # |e1 × e2| is the same at every corner
     cots = []

@@ -12,6 +12,7 @@ Each kind costs ``O(B n k²)`` like the numpy fast path; the extrinsic one keeps
 Its gradient, ``∂/∂x_p`` of ``Φᵀ E^D Φ``, follows from ``E_ij = ‖x_i − x_j‖² a_i a_j``:
 ``2 a_p Σ_j a_j (φ_p − φ_j)(φ_p − φ_j)ᵀ (x_p − x_j)`` plus the terms through the areas ``a(X)``.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -58,15 +59,19 @@ class ShapeDifferences(torch.nn.Module):
     def __init__(self, base_basis: Eigenbasis, kinds=KINDS, *, device=None):
         super().__init__()
         if not isinstance(base_basis, Eigenbasis):
-            raise TypeError(f"base_basis must be an opnet.Eigenbasis (opnet.eigenbasis(base_mesh, k)), got "
-                            f"{type(base_basis).__name__}.")
+            raise TypeError(
+                f"base_basis must be an opnet.Eigenbasis (opnet.eigenbasis(base_mesh, k)), got "
+                f"{type(base_basis).__name__}."
+            )
         if isinstance(kinds, str):
             raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
         kinds = tuple(kinds)
         unknown = [k for k in kinds if not (isinstance(k, str) and k in KINDS)]
         if not kinds or unknown:
-            raise ValueError(f"kinds must be a non-empty sequence of {KINDS} (custom inner products have no torch "
-                             f"form; compute them with opnet.shape_differences), got {kinds!r}.")
+            raise ValueError(
+                f"kinds must be a non-empty sequence of {KINDS} (custom inner products have no torch "
+                f"form; compute them with opnet.shape_differences), got {kinds!r}."
+            )
         self.kinds, self.n_vertices, self.k = kinds, base_basis.mesh.n_vertices, base_basis.k
         mesh = base_basis.mesh
         faces, edges = mesh.faces, unique_edges(mesh.faces)
@@ -74,10 +79,13 @@ class ShapeDifferences(torch.nn.Module):
         k0_pinv = np.stack(base_pinvs(base_basis, kinds))
         phi = base_basis.evecs
         for name, value in (("faces", faces), ("corner_edge", corner_edge)):
-            self.register_buffer(name, torch.tensor(np.asarray(value), dtype=torch.long, device=device), persistent=False)
+            self.register_buffer(
+                name, torch.tensor(np.asarray(value), dtype=torch.long, device=device), persistent=False
+            )
         for name, value in (("phi", phi), ("edge_phi", phi[edges[:, 0]] - phi[edges[:, 1]]), ("k0_pinv", k0_pinv)):
-            self.register_buffer(name, torch.tensor(np.asarray(value), dtype=torch.float64, device=device),
-                                 persistent=False)
+            self.register_buffer(
+                name, torch.tensor(np.asarray(value), dtype=torch.float64, device=device), persistent=False
+            )
         self.n_edges = len(edges)
 
     def forward(self, X: torch.Tensor) -> torch.Tensor:
@@ -128,8 +136,10 @@ class ShapeDifferences(torch.nn.Module):
         if X.is_complex() or not (X.is_floating_point() or X.dtype in (torch.int32, torch.int64)):
             raise TypeError(f"X must hold real numbers, got {X.dtype}; pass float32 or float64 coordinates.")
         if X.ndim != 3 or tuple(X.shape[1:]) != (self.n_vertices, 3):
-            raise ValueError(f"X must have shape (B, {self.n_vertices}, 3) (coordinates on the base's triangulation), "
-                             f"got {tuple(X.shape)}.")
+            raise ValueError(
+                f"X must have shape (B, {self.n_vertices}, 3) (coordinates on the base's triangulation), "
+                f"got {tuple(X.shape)}."
+            )
         if len(X) == 0:
             raise ValueError("X is an empty batch (B = 0); pass at least one shape.")
         if not X.is_floating_point():

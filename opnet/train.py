@@ -27,6 +27,7 @@ model is wrapped in :class:`~torch.nn.parallel.DistributedDataParallel`: every g
 that of the whole global batch; the result equals a single-process run with the same ``batch_size`` up to
 floating-point summation order. Only rank 0 writes the run directory.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -45,8 +46,19 @@ from ._files import atomic_write, remove_stale_tmp
 from .model import ARCHITECTURES, VARIANTS, OperatorNet, build_model, rigid_alignment_loss
 from .shape_difference import KINDS
 
-__all__ = ["fit", "load_model", "read_history", "collection_fingerprint", "parse_channels", "resolve_device",
-           "TrainingError", "CheckpointError", "CHANNEL_SETS", "RUN_FILES", "SCHEDULES"]
+__all__ = [
+    "fit",
+    "load_model",
+    "read_history",
+    "collection_fingerprint",
+    "parse_channels",
+    "resolve_device",
+    "TrainingError",
+    "CheckpointError",
+    "CHANNEL_SETS",
+    "RUN_FILES",
+    "SCHEDULES",
+]
 
 CHECKPOINT_FORMAT = "opnet-checkpoint"
 CHECKPOINT_VERSION = 1
@@ -58,8 +70,12 @@ _VARIANT_SCHEDULE = {"paper": "constant", "ours": "onecycle"}
 
 #: The paper's input combinations (Table 1 and the ablation of Appendix B), by their short names.
 CHANNEL_SETS = {
-    "Area": ("area",), "Ext": ("extrinsic",), "Conf": ("conformal",),
-    "A+E": ("area", "extrinsic"), "A+C": ("area", "conformal"), "E+C": ("conformal", "extrinsic"),
+    "Area": ("area",),
+    "Ext": ("extrinsic",),
+    "Conf": ("conformal",),
+    "A+E": ("area", "extrinsic"),
+    "A+C": ("area", "conformal"),
+    "E+C": ("conformal", "extrinsic"),
     "A+E+C": KINDS,
 }
 
@@ -78,8 +94,10 @@ def parse_channels(channels) -> tuple[str, ...]:
         channels = CHANNEL_SETS[channels] if channels in CHANNEL_SETS else [c.strip() for c in channels.split(",")]
     channels = tuple(channels)
     if not channels or not set(channels) <= set(KINDS) or len(set(channels)) != len(channels):
-        raise ValueError(f"channels must be a non-empty subset of {KINDS} without repeats (or one of "
-                         f"{list(CHANNEL_SETS)}), got {channels!r}.")
+        raise ValueError(
+            f"channels must be a non-empty subset of {KINDS} without repeats (or one of "
+            f"{list(CHANNEL_SETS)}), got {channels!r}."
+        )
     return channels
 
 
@@ -99,8 +117,13 @@ def resolve_device(device="auto") -> torch.device:
 def collection_fingerprint(collection) -> str:
     """SHA-256 (hex) of a collection's vertices, operators, splits and base eigenbasis: what a model depends on."""
     h = hashlib.sha256()
-    for a in (collection.vertices, collection.operators, collection.split.astype(str), collection.base_basis.evecs,
-              collection.base_basis.evals):
+    for a in (
+        collection.vertices,
+        collection.operators,
+        collection.split.astype(str),
+        collection.base_basis.evecs,
+        collection.base_basis.evals,
+    ):
         a = np.ascontiguousarray(a)
         h.update(str((a.dtype.str, a.shape)).encode())
         h.update(a.data)
@@ -109,10 +132,16 @@ def collection_fingerprint(collection) -> str:
 
 def _data_config(collection) -> dict:
     meta = collection.meta
-    return dict(name=meta.get("name"), preset=meta.get("preset"), resolution=meta.get("resolution"),
-                seed=meta.get("seed"), generator_version=meta.get("generator_version"),
-                fingerprint=collection_fingerprint(collection), n_vertices=int(collection.vertices.shape[1]),
-                k=int(collection.base_basis.k))
+    return dict(
+        name=meta.get("name"),
+        preset=meta.get("preset"),
+        resolution=meta.get("resolution"),
+        seed=meta.get("seed"),
+        generator_version=meta.get("generator_version"),
+        fingerprint=collection_fingerprint(collection),
+        n_vertices=int(collection.vertices.shape[1]),
+        k=int(collection.base_basis.k),
+    )
 
 
 def _describe(config: dict) -> str:
@@ -138,21 +167,29 @@ def _save_json(obj, path: Path) -> None:
 def _read_checkpoint(path: Path, map_location="cpu") -> dict:
     path = Path(path)
     if not path.is_file():
-        raise CheckpointError(f"no checkpoint at {path}: train one with opnet.train.fit(..., run_dir=...) or "
-                              "`python -m opnet train --run-dir ...`, or check the path.")
+        raise CheckpointError(
+            f"no checkpoint at {path}: train one with opnet.train.fit(..., run_dir=...) or "
+            "`python -m opnet train --run-dir ...`, or check the path."
+        )
     try:
         ckpt = torch.load(path, map_location=map_location, weights_only=True)
     except Exception as exc:  # truncated, not a zip, pickled code refused by weights_only, ...
-        raise CheckpointError(f"{path} is not a readable opnet checkpoint ({type(exc).__name__}): it is corrupt or "
-                              "was not written by opnet. Delete it (or the run directory) and train again.") from None
+        raise CheckpointError(
+            f"{path} is not a readable opnet checkpoint ({type(exc).__name__}): it is corrupt or "
+            "was not written by opnet. Delete it (or the run directory) and train again."
+        ) from None
     if not isinstance(ckpt, dict) or ckpt.get("format") != CHECKPOINT_FORMAT:
         raise CheckpointError(f"{path} is not an opnet checkpoint (no '{CHECKPOINT_FORMAT}' header).")
     if not {"config", "model", "epoch"} <= set(ckpt):
-        raise CheckpointError(f"{path} is an incomplete opnet checkpoint (no {sorted({'config', 'model', 'epoch'} - set(ckpt))}); "
-                              "delete it and train again.")
+        raise CheckpointError(
+            f"{path} is an incomplete opnet checkpoint (no {sorted({'config', 'model', 'epoch'} - set(ckpt))}); "
+            "delete it and train again."
+        )
     if ckpt.get("version") != CHECKPOINT_VERSION:
-        raise CheckpointError(f"{path} has checkpoint version {ckpt.get('version')}; this opnet reads "
-                              f"{CHECKPOINT_VERSION}. Train it again with this version.")
+        raise CheckpointError(
+            f"{path} has checkpoint version {ckpt.get('version')}; this opnet reads "
+            f"{CHECKPOINT_VERSION}. Train it again with this version."
+        )
     return ckpt
 
 
@@ -177,25 +214,32 @@ def load_model(path, collection=None, *, channels=None, device="cpu"):
     returned in eval mode on ``device``.
     """
     path = _checkpoint_path(path)
-    return _model_from_checkpoint(_read_checkpoint(path, map_location=resolve_device(device)), path, collection,
-                                 channels=channels, device=device)
+    return _model_from_checkpoint(
+        _read_checkpoint(path, map_location=resolve_device(device)), path, collection, channels=channels, device=device
+    )
 
 
 def _model_from_checkpoint(ckpt: dict, path, collection=None, *, channels=None, device="cpu"):
     """:func:`load_model` on a checkpoint already read (``path`` names it in errors)."""
     config = ckpt["config"]
     if channels is not None and "channels" not in config["model"]:
-        raise CheckpointError(f"{path} holds a {config['model'].get('architecture')} network, which reads no "
-                              "operators: load it without channels=.")
+        raise CheckpointError(
+            f"{path} holds a {config['model'].get('architecture')} network, which reads no "
+            "operators: load it without channels=."
+        )
     if channels is not None and tuple(parse_channels(channels)) != tuple(config["model"]["channels"]):
-        raise CheckpointError(f"{path} was trained on channels {','.join(config['model']['channels'])}, not "
-                              f"{','.join(parse_channels(channels))}; load the run trained on those channels.")
+        raise CheckpointError(
+            f"{path} was trained on channels {','.join(config['model']['channels'])}, not "
+            f"{','.join(parse_channels(channels))}; load the run trained on those channels."
+        )
     if collection is not None:
         data = _data_config(collection)
         if data != config["data"]:
             got = dict(config, data=data)
-            raise CheckpointError(f"{path} was trained on {_describe(config)}, but this collection is "
-                                  f"{_describe(got)}; use a model trained on this collection.")
+            raise CheckpointError(
+                f"{path} was trained on {_describe(config)}, but this collection is "
+                f"{_describe(got)}; use a model trained on this collection."
+            )
     net = build_model(config["model"])
     net.load_state_dict(ckpt["model"])
     return net.to(resolve_device(device)).eval()
@@ -212,8 +256,11 @@ def _distributed() -> tuple[int, int]:
 
 
 def _shard(batch: np.ndarray, rank: int, world: int) -> tuple[np.ndarray, np.ndarray]:
-    """This rank's part of a global batch and the weights of its shapes (a rank left without a shape gets one
-    with weight 0, so that every process runs forward and backward as DDP requires)."""
+    """The part of a global batch that this rank computes, and the weights of its shapes.
+
+    A rank left without a shape gets one with weight 0, so that every process runs forward and backward as DDP
+    requires.
+    """
     part = np.array_split(batch, world)[rank]
     if len(part) == 0:
         return batch[:1], np.zeros(1)
@@ -225,18 +272,34 @@ def _val_d_R(net, inputs, vertices, batch_size=256) -> float:
     net.eval()
     total = 0.0
     for s in range(0, len(inputs), batch_size):
-        pred = net(inputs[s:s + batch_size]).double()
-        total += rigid_alignment_loss(pred, vertices[s:s + batch_size].double(), reduction="none").sum().item()
+        pred = net(inputs[s : s + batch_size]).double()
+        total += rigid_alignment_loss(pred, vertices[s : s + batch_size].double(), reduction="none").sum().item()
     net.train()
     return total / len(inputs)
 
 
-def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_size: int = 32, lr: float = 1e-3,
-        seed: int = 0, device="auto", run_dir=None, resume: bool = True, progress: bool | None = None,
-        hidden: int = 1024, subtract_identity: bool = True, variant: str = "paper",
-        schedule: str | None = None, standardize: bool | None = None,
-        residual: bool | None = None, architecture: str = "operatornet",
-        n_points: int | None = None) -> tuple[torch.nn.Module, list[dict]]:
+def fit(
+    collection,
+    *,
+    channels=None,
+    depth: int = 1,
+    epochs: int = 50,
+    batch_size: int = 32,
+    lr: float = 1e-3,
+    seed: int = 0,
+    device="auto",
+    run_dir=None,
+    resume: bool = True,
+    progress: bool | None = None,
+    hidden: int = 1024,
+    subtract_identity: bool = True,
+    variant: str = "paper",
+    schedule: str | None = None,
+    standardize: bool | None = None,
+    residual: bool | None = None,
+    architecture: str = "operatornet",
+    n_points: int | None = None,
+) -> tuple[torch.nn.Module, list[dict]]:
     """Train OperatorNet (or the PointNet autoencoder) on the ``train`` split of ``collection``; returns the best
     network on ``val`` and the history.
 
@@ -293,13 +356,23 @@ def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_si
     if architecture not in ARCHITECTURES:
         raise ValueError(f"architecture must be one of {list(ARCHITECTURES)}, got {architecture!r}.")
     pointnet = ARCHITECTURES[architecture][1] == "vertices"  # what the network reads
-    if pointnet and (channels is not None or variant != "paper" or standardize is not None or residual is not None
-                     or depth != 1 or subtract_identity is not True):
-        raise ValueError("architecture='pointnet' reads coordinates, not operators: channels, depth, variant, "
-                         "subtract_identity, standardize and residual are OperatorNet's options; leave them unset.")
+    if pointnet and (
+        channels is not None
+        or variant != "paper"
+        or standardize is not None
+        or residual is not None
+        or depth != 1
+        or subtract_identity is not True
+    ):
+        raise ValueError(
+            "architecture='pointnet' reads coordinates, not operators: channels, depth, variant, "
+            "subtract_identity, standardize and residual are OperatorNet's options; leave them unset."
+        )
     if not pointnet and n_points is not None:
-        raise ValueError("n_points is the PointNet autoencoder's option (architecture='pointnet'); OperatorNet reads "
-                         "operators, not points: leave it unset.")
+        raise ValueError(
+            "n_points is the PointNet autoencoder's option (architecture='pointnet'); OperatorNet reads "
+            "operators, not points: leave it unset."
+        )
     n_points = 256 if n_points is None else n_points
     channels = parse_channels(KINDS if channels is None else channels)
     if variant not in VARIANTS:
@@ -316,42 +389,64 @@ def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_si
         device = torch.device("cuda", int(os.environ.get("LOCAL_RANK", 0)))
     train_idx, val_idx = collection.indices("train"), collection.indices("val")
     if len(train_idx) == 0 or len(val_idx) == 0:
-        raise ValueError(f"the collection needs shapes in both 'train' and 'val' (it has {len(train_idx)} and "
-                         f"{len(val_idx)}); give it a splits.csv or use a larger preset.")
+        raise ValueError(
+            f"the collection needs shapes in both 'train' and 'val' (it has {len(train_idx)} and "
+            f"{len(val_idx)}); give it a splits.csv or use a larger preset."
+        )
     chans = [KINDS.index(c) for c in channels]
-    read = {"vertices": collection.vertices} if pointnet else {"operators": collection.operators,
-                                                               "vertices": collection.vertices}
+    read = (
+        {"vertices": collection.vertices}
+        if pointnet
+        else {"operators": collection.operators, "vertices": collection.vertices}
+    )
     for name, arr in read.items():
         bad = ~np.isfinite(arr[np.concatenate([train_idx, val_idx])]).reshape(len(train_idx) + len(val_idx), -1).all(1)
         if bad.any():
-            raise ValueError(f"the collection's {name} hold NaN or infinite values in {bad.sum()} train/val shapes "
-                             f"(first: shape {np.concatenate([train_idx, val_idx])[bad][0]}); repair or drop them.")
+            raise ValueError(
+                f"the collection's {name} hold NaN or infinite values in {bad.sum()} train/val shapes "
+                f"(first: shape {np.concatenate([train_idx, val_idx])[bad][0]}); repair or drop them."
+            )
 
     def tensors(idx):  # (network input, target vertices)
         X = torch.from_numpy(np.ascontiguousarray(collection.vertices[idx], dtype=np.float32)).to(device)
         if pointnet:
             return X, X
-        return torch.from_numpy(np.ascontiguousarray(collection.operators[idx][:, chans], dtype=np.float32)).to(device), X
+        return torch.from_numpy(np.ascontiguousarray(collection.operators[idx][:, chans], dtype=np.float32)).to(
+            device
+        ), X
 
     (train_in, train_X), (val_in, val_X) = tensors(train_idx), tensors(val_idx)
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(seed)
-        options = {**VARIANTS[variant], **{k: v for k, v in (("standardize", standardize), ("residual", residual))
-                                           if v is not None}}
+        options = {
+            **VARIANTS[variant],
+            **{k: v for k, v in (("standardize", standardize), ("residual", residual)) if v is not None},
+        }
         if pointnet:
             n = collection.vertices.shape[1]
             net = build_model(dict(architecture=architecture, n_vertices=n, n_points=min(n_points, n), hidden=hidden))
             net.choose_points(collection.base_basis.mesh.vertices)
         else:
-            net = OperatorNet(collection.vertices.shape[1], collection.base_basis.k, channels, depth, hidden,
-                              subtract_identity, **options)
+            net = OperatorNet(
+                collection.vertices.shape[1],
+                collection.base_basis.k,
+                channels,
+                depth,
+                hidden,
+                subtract_identity,
+                **options,
+            )
             net.set_statistics(train_in.cpu(), collection.base_basis.mesh.vertices)
     net.to(device)
     optimizer = torch.optim.Adam(net.parameters(), lr=lr)
-    config = dict(data=_data_config(collection), model=net.config(),
-                  train=dict(epochs=epochs, batch_size=batch_size, lr=lr, seed=seed, schedule=schedule,
-                             version=TRAINING_VERSION),
-                  versions=dict(opnet=_opnet_version(), torch=str(torch.__version__)), device=str(device), world_size=world)
+    config = dict(
+        data=_data_config(collection),
+        model=net.config(),
+        train=dict(epochs=epochs, batch_size=batch_size, lr=lr, seed=seed, schedule=schedule, version=TRAINING_VERSION),
+        versions=dict(opnet=_opnet_version(), torch=str(torch.__version__)),
+        device=str(device),
+        world_size=world,
+    )
 
     history, best_val, best_epoch, start = [], math.inf, 0, 0
     run_dir = Path(run_dir) if run_dir is not None else None
@@ -365,9 +460,11 @@ def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_si
             ckpt = _read_checkpoint(latest, map_location=device)
             _check_same_run(ckpt["config"], config, run_dir)
             if ckpt["epoch"] > epochs:
-                raise CheckpointError(f"{run_dir} has already trained {ckpt['epoch']} epochs, more than epochs={epochs}; "
-                                      f"ask for epochs >= {ckpt['epoch']} to load it, or resume=False (--restart) to "
-                                      "train it again.")
+                raise CheckpointError(
+                    f"{run_dir} has already trained {ckpt['epoch']} epochs, more than epochs={epochs}; "
+                    f"ask for epochs >= {ckpt['epoch']} to load it, or resume=False (--restart) to "
+                    "train it again."
+                )
             net.load_state_dict(ckpt["model"])
             optimizer.load_state_dict(ckpt["optimizer"])
             history, best_val, best_epoch, start = ckpt["history"], ckpt["best_val"], ckpt["best_epoch"], ckpt["epoch"]
@@ -381,26 +478,34 @@ def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_si
 
     model = net
     if world > 1:
-        model = torch.nn.parallel.DistributedDataParallel(net, device_ids=[device.index] if device.type == "cuda" else None)
+        model = torch.nn.parallel.DistributedDataParallel(
+            net, device_ids=[device.index] if device.type == "cuda" else None
+        )
     net.train()
     n = len(train_idx)
     steps_per_epoch = -(-n // batch_size)
     step, total_steps = start * steps_per_epoch, epochs * steps_per_epoch
-    bar = tqdm(total=epochs, initial=min(start, epochs), desc="train pointnet" if pointnet else f"train {'+'.join(c[:4] for c in channels)} d{depth}",
-               unit="epoch", disable=(progress is False) or rank != 0)
+    bar = tqdm(
+        total=epochs,
+        initial=min(start, epochs),
+        desc="train pointnet" if pointnet else f"train {'+'.join(c[:4] for c in channels)} d{depth}",
+        unit="epoch",
+        disable=(progress is False) or rank != 0,
+    )
     try:
         for epoch in range(start + 1, epochs + 1):
             t0 = time.perf_counter()
             order = np.random.default_rng([seed, epoch]).permutation(n)
             loss_sum = torch.zeros((), dtype=torch.float64, device=device)
             for s in range(0, n, batch_size):
-                batch = order[s:s + batch_size]
+                batch = order[s : s + batch_size]
                 part, weight = _shard(batch, rank, world)
                 pred = model(train_in[part])
                 finite = torch.isfinite(pred).all()
                 # a non-finite output is replaced by zeros for Kabsch; the step is refused below in any case
-                per_shape = rigid_alignment_loss(torch.where(finite, pred, torch.zeros_like(pred)), train_X[part],
-                                                 reduction="none")
+                per_shape = rigid_alignment_loss(
+                    torch.where(finite, pred, torch.zeros_like(pred)), train_X[part], reduction="none"
+                )
                 weight = torch.as_tensor(weight, dtype=per_shape.dtype, device=device)
                 # DDP averages gradients over the `world` ranks: scale so that the sum is the global batch mean
                 loss = (per_shape * weight).sum() * (world / len(batch))
@@ -432,8 +537,18 @@ def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_si
                 if improved:
                     _save_torch(dict(state, epoch=epoch, model=net.state_dict(), val_d_R=val), run_dir / "best.pt")
                 _save_json(history, run_dir / "history.json")
-                _save_torch(dict(state, epoch=epoch, model=net.state_dict(), optimizer=optimizer.state_dict(),
-                                 history=history, best_val=best_val, best_epoch=best_epoch), run_dir / "latest.pt")
+                _save_torch(
+                    dict(
+                        state,
+                        epoch=epoch,
+                        model=net.state_dict(),
+                        optimizer=optimizer.state_dict(),
+                        history=history,
+                        best_val=best_val,
+                        best_epoch=best_epoch,
+                    ),
+                    run_dir / "latest.pt",
+                )
             if improved and run_dir is None:
                 best_state = {k: v.detach().clone() for k, v in net.state_dict().items()}
             bar.update(1)
@@ -451,10 +566,15 @@ def fit(collection, *, channels=None, depth: int = 1, epochs: int = 50, batch_si
 
 
 def _diverged(epoch, what, history, start, run_dir, lr):
-    good = (f"{run_dir / 'latest.pt'} (epoch {history[-1]['epoch'] if history else start})"
-            if run_dir is not None and (history or start) else "none")
-    raise TrainingError(f"{what} became NaN or infinite in epoch {epoch}; the last good checkpoint is {good}. Lower "
-                        f"lr (now {lr}), or check the collection for NaN or extreme operators.")
+    good = (
+        f"{run_dir / 'latest.pt'} (epoch {history[-1]['epoch'] if history else start})"
+        if run_dir is not None and (history or start)
+        else "none"
+    )
+    raise TrainingError(
+        f"{what} became NaN or infinite in epoch {epoch}; the last good checkpoint is {good}. Lower "
+        f"lr (now {lr}), or check the collection for NaN or extreme operators."
+    )
 
 
 def _check_same_run(saved: dict, wanted: dict, run_dir: Path) -> None:
@@ -472,8 +592,11 @@ def _check_same_run(saved: dict, wanted: dict, run_dir: Path) -> None:
             if new.get("schedule") == "constant":  # a constant learning rate may go on for more epochs
                 old.pop("epochs", None), new.pop("epochs", None)
         if old != new:
-            diff = ", ".join(f"{k}={old.get(k)!r} there but {new.get(k)!r} here" for k in sorted(set(old) | set(new))
-                             if old.get(k) != new.get(k) and k != "fingerprint")
+            diff = ", ".join(
+                f"{k}={old.get(k)!r} there but {new.get(k)!r} here"
+                for k in sorted(set(old) | set(new))
+                if old.get(k) != new.get(k) and k != "fingerprint"
+            )
             if part == "data":
                 diff = f"{_describe(saved)} there but {_describe(wanted)} here" + (f" ({diff})" if diff else "")
             raise CheckpointError(f"{run_dir} holds a run with other {part} settings: {diff}; {fix}")
@@ -494,8 +617,11 @@ def _onecycle(step: int, total: int, lr: float) -> float:
 def _model_defaults() -> dict:
     import inspect
 
-    return {name: p.default for name, p in inspect.signature(OperatorNet).parameters.items()
-            if p.default is not inspect.Parameter.empty and name not in ("k", "channels", "depth", "hidden")}
+    return {
+        name: p.default
+        for name, p in inspect.signature(OperatorNet).parameters.items()
+        if p.default is not inspect.Parameter.empty and name not in ("k", "channels", "depth", "hidden")
+    }
 
 
 def _opnet_version() -> str:

@@ -10,6 +10,7 @@ when a control changes. Where no kernel drives the widgets — a notebook execut
 the tests (nbval) — :func:`show` displays that image instead, so the page reads complete; those commands set
 ``OPNET_STATIC_WIDGETS=1``. ``methods`` are :class:`opnet.apps.ShapeAlgebra` objects.
 """
+
 from __future__ import annotations
 
 import io
@@ -43,7 +44,8 @@ def render_png(meshes, faces, titles, scalars=None, *, clim=None, camera="xz", z
     """Shapes ``(vertices (n, 3), ...)`` side by side, rendered off screen: PNG bytes (one row, ``size`` per shape).
 
     ``scalars``: a per-vertex field or ``None`` per shape, painted on a shared range ``clim`` (default 0 to the
-    largest value)."""
+    largest value).
+    """
     import PIL.Image
 
     from .plotting import headless, plot_meshes
@@ -51,8 +53,17 @@ def render_png(meshes, faces, titles, scalars=None, *, clim=None, camera="xz", z
     headless()
     fields = [s for s in (scalars or []) if s is not None]
     clim = clim or ((0.0, max(float(np.max(s)) for s in fields)) if fields else None)
-    plotter = plot_meshes([(v, faces) for v in meshes], scalars, titles, cmap="magma_r", clim=clim,
-                          ncols=len(meshes), camera=camera, zoom=zoom, window_size=(size[0] * len(meshes), size[1]))
+    plotter = plot_meshes(
+        [(v, faces) for v in meshes],
+        scalars,
+        titles,
+        cmap="magma_r",
+        clim=clim,
+        ncols=len(meshes),
+        camera=camera,
+        zoom=zoom,
+        window_size=(size[0] * len(meshes), size[1]),
+    )
     img = plotter.screenshot(return_img=True)
     plotter.close()
     buf = io.BytesIO()
@@ -63,8 +74,10 @@ def render_png(meshes, faces, titles, scalars=None, *, clim=None, camera="xz", z
 def shape_labels(collection, indices) -> dict:
     """Dropdown options: ``"subject03/walk, frame 2 (#17)"`` → index, for the collection's shapes ``indices``."""
     frames = collection.params.get("frame")
-    return {f"{collection.subcollection[i]}" + (f", frame {frames[i]}" if frames is not None else "") + f" (#{i})": int(i)
-            for i in indices}
+    return {
+        f"{collection.subcollection[i]}" + (f", frame {frames[i]}" if frames is not None else "") + f" (#{i})": int(i)
+        for i in indices
+    }
 
 
 def _default_shapes(collection) -> dict:
@@ -86,8 +99,9 @@ def _with_errors(shapes: dict, truth):
     return names, meshes, scalars
 
 
-def interpolation_explorer(collection, methods, *, shapes: dict | None = None, steps: int = 11, camera="xz",
-                           start=None, end=None):
+def interpolation_explorer(
+    collection, methods, *, shapes: dict | None = None, steps: int = 11, camera="xz", start=None, end=None
+):
     """A widget: dropdowns for the start and end shapes, a method selector, a slider for ``t``, and the shapes at
     ``t`` of every selected method side by side. Paths are computed once per (method, start, end) at ``steps``
     values of ``t``; the slider moves along them.
@@ -107,8 +121,14 @@ def interpolation_explorer(collection, methods, *, shapes: dict | None = None, s
     start = start or labels[0]
     if end is None:  # the first shape of another sequence (not a random pose), else the last one
         sub = collection.subcollection
-        end = next((label for label, i in shapes.items() if sub[i] != sub[shapes[start]]
-                    and not str(sub[i]).endswith("/random")), labels[-1])
+        end = next(
+            (
+                label
+                for label, i in shapes.items()
+                if sub[i] != sub[shapes[start]] and not str(sub[i]).endswith("/random")
+            ),
+            labels[-1],
+        )
     first = w.Dropdown(options=labels, value=start, description="start")
     last = w.Dropdown(options=labels, value=end, description="end")
     chosen = w.SelectMultiple(options=list(by_name), value=tuple(by_name), description="methods", rows=len(by_name))
@@ -157,15 +177,20 @@ def analogy_explorer(collection, methods, *, subjects=None, poses=None, camera="
 
     subj, pose_idx, _ = _test_pool(collection)
     subjects = subjects if subjects is not None else {f"unseen subject {i}": p for i, p in enumerate(subj)}
-    poses = poses if poses is not None else {label: collection.params["controls"][i]
-                                             for label, i in shape_labels(collection, pose_idx).items()}
+    poses = (
+        poses
+        if poses is not None
+        else {label: collection.params["controls"][i] for label, i in shape_labels(collection, pose_idx).items()}
+    )
     s_names, p_names = list(subjects), list(poses)
     by_name = {m.name: m for m in methods}
     initial = initial or (0, 0, 0, len(p_names) - 1, min(1, len(s_names) - 1), 0)
     boxes = []
     for role, k in zip("ABC", range(3)):
-        boxes += [w.Dropdown(options=s_names, value=s_names[initial[2 * k]], description=f"{role} subject"),
-                  w.Dropdown(options=p_names, value=p_names[initial[2 * k + 1]], description=f"{role} pose")]
+        boxes += [
+            w.Dropdown(options=s_names, value=s_names[initial[2 * k]], description=f"{role} subject"),
+            w.Dropdown(options=p_names, value=p_names[initial[2 * k + 1]], description=f"{role} pose"),
+        ]
     chosen = w.SelectMultiple(options=list(by_name), value=tuple(by_name), description="methods", rows=len(by_name))
     image = w.Image(format="png")
 
@@ -177,12 +202,15 @@ def analogy_explorer(collection, methods, *, subjects=None, poses=None, camera="
         p = [boxes[2 * k + 1].value for k in range(3)]
         V = generate_shapes(collection, np.stack([subjects[x] for x in s]), np.stack([poses[x] for x in p]))
         sx, px = solve(*s), solve(*p)
-        truth = None if sx is None or px is None else generate_shapes(collection, subjects[sx][None], poses[px][None])[0]
+        truth = (
+            None if sx is None or px is None else generate_shapes(collection, subjects[sx][None], poses[px][None])[0]
+        )
         names, meshes, scalars = _with_errors({m: by_name[m].analogy(*V) for m in chosen.value}, truth)
         known = [("A", V[0]), ("B", V[1]), ("C", V[2])] + ([("true X", truth)] if truth is not None else [])
         box.titles = [n for n, _ in known] + names
-        image.value = render_png([v for _, v in known] + meshes, collection.faces, box.titles,
-                                 [None] * len(known) + scalars, camera=camera)
+        image.value = render_png(
+            [v for _, v in known] + meshes, collection.faces, box.titles, [None] * len(known) + scalars, camera=camera
+        )
 
     box = w.VBox([w.HBox(boxes[0:2]), w.HBox(boxes[2:4]), w.HBox(boxes[4:6]), chosen, image])
     box.image, box.controls = image, boxes

@@ -1,5 +1,6 @@
 """Shared small meshes (a capsule base and smooth deformations of it, all in 1-1 correspondence), and the quick
 humans generated once per session."""
+
 import numpy as np
 import pytest
 

@@ -1,4 +1,5 @@
 """Functoriality (eq. 5), multiplicative interpolation (eq. 6) and analogies."""
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -9,9 +10,7 @@ import opnet
 @pytest.fixture(scope="module")
 def ops(base_basis, base, targets):
     """Per kind: the base's own difference and the three targets'."""
-    return {
-        kind: [opnet.shape_difference(base_basis, m, kind) for m in [base, *targets]] for kind in opnet.KINDS
-    }
+    return {kind: [opnet.shape_difference(base_basis, m, kind) for m in [base, *targets]] for kind in opnet.KINDS}
 
 
 @pytest.mark.filterwarnings("ignore:The logm input matrix is exactly singular")
@@ -133,7 +132,9 @@ def test_interpolation_with_an_imperfect_functional_map(base_basis, targets, kin
     """Computed maps do not send constants exactly to constants: D e_0 != 0. Still real and exact at the ends."""
     tb = opnet.eigenbasis(targets[1], 60)
     exact = opnet.identity_fmap(base_basis, tb)
-    noisy = opnet.FunctionalMap(exact.matrix + 1e-3 * np.random.default_rng(0).normal(size=exact.matrix.shape), base_basis, tb)
+    noisy = opnet.FunctionalMap(
+        exact.matrix + 1e-3 * np.random.default_rng(0).normal(size=exact.matrix.shape), base_basis, tb
+    )
     D0 = opnet.shape_difference(base_basis, targets[0], kind)
     D1 = opnet.shape_difference(base_basis, targets[1], kind, fmap=noisy)
     path = opnet.interpolate(D0, D1, [0.0, 0.5, 1.0])

@@ -1,11 +1,11 @@
-"""Collections built from the anny body model (humans, heads, hands): consistent meshes, splits, determinism, caching."""
+"""Collections built from the anny body model (humans, heads, hands): meshes, splits, determinism, caching."""
+
 import numpy as np
 import pytest
 import trimesh
 
 import opnet
 from opnet.data import bodies
-
 
 # the fixtures `root` and `humans` (the quick humans, built once per test session) are in conftest.py
 
@@ -72,8 +72,12 @@ def test_sequences_have_no_repeated_frames(humans):
 def test_resolutions_hold_the_same_shapes(humans, root):
     fine = opnet.data.load_collection("humans", "quick", root, resolution="2k", progress=False)
     assert fine.vertices.shape[1] == 2000 and not np.array_equal(fine.faces.shape, humans.faces.shape)
-    for a, b in ((fine.split, humans.split), (fine.subcollection, humans.subcollection),
-                 (fine.eval_subset, humans.eval_subset), (fine.params["controls"], humans.params["controls"])):
+    for a, b in (
+        (fine.split, humans.split),
+        (fine.subcollection, humans.subcollection),
+        (fine.eval_subset, humans.eval_subset),
+        (fine.params["controls"], humans.params["controls"]),
+    ):
         np.testing.assert_array_equal(a, b)
     extent = lambda v: v.max(axis=1) - v.min(axis=1)  # noqa: E731
     np.testing.assert_allclose(extent(fine.vertices), extent(humans.vertices), atol=0.03)  # metres
@@ -95,8 +99,9 @@ def test_unknown_names_and_presets(root):
         opnet.data.load_collection("humans", "huge", root)
 
 
-@pytest.mark.parametrize("name, n_vertices, motions", [("heads", 4200, bodies.HEAD_EXPRESSIONS),
-                                                       ("hands", 1609, bodies.HAND_GESTURES)])
+@pytest.mark.parametrize(
+    "name, n_vertices, motions", [("heads", 4200, bodies.HEAD_EXPRESSIONS), ("hands", 1609, bodies.HAND_GESTURES)]
+)
 def test_part_collections(root, name, n_vertices, motions):
     coll = opnet.data.load_collection(name, "quick", root, progress=False)
     assert coll.vertices.shape[1:] == (n_vertices, 3) and coll.operators.shape[1:] == (3, 60, 60)

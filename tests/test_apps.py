@@ -1,14 +1,14 @@
 """Applications: the PointNet autoencoder, interpolation / analogy as shapes, and the ground-truth benchmarks."""
+
 import numpy as np
 import pytest
 import torch
+from test_train import FAST, tiny_collection
 
 import opnet
 from opnet import apps, train
 from opnet.data import generators
 from opnet.model import PointNetAutoencoder, build_model
-
-from test_train import FAST, tiny_collection
 
 
 @pytest.fixture(scope="module")
@@ -19,8 +19,9 @@ def coll():
 def _vertex_algebra(collection):
     """The coordinates themselves as a linear "latent" space: interpolation and analogy are exact affine maps."""
     n = collection.vertices.shape[1]
-    return apps.ShapeAlgebra("vertices", collection, lambda V: V.reshape(len(V), -1), lambda Z: Z.reshape(-1, n, 3),
-                             "latent")
+    return apps.ShapeAlgebra(
+        "vertices", collection, lambda V: V.reshape(len(V), -1), lambda Z: Z.reshape(-1, n, 3), "latent"
+    )
 
 
 def _recording_algebra(collection, scheme="multiplicative"):
@@ -40,7 +41,8 @@ def _recording_algebra(collection, scheme="multiplicative"):
 
 def test_pointnet_reads_its_points_in_any_order_and_decodes_with_operatornets_decoder(coll):
     net = PointNetAutoencoder(coll.vertices.shape[1], n_points=64, latent=32, hidden=16).choose_points(
-        coll.base_basis.mesh.vertices)
+        coll.base_basis.mesh.vertices
+    )
     index = net.point_index.numpy()
     assert len(np.unique(index)) == 64
     # farthest-first points cover the shape: every vertex is closer to one of them than random picks manage
@@ -92,21 +94,45 @@ def test_pointnet_trains_checkpoints_and_resumes_like_operatornet(coll, tmp_path
 
 
 def test_cli_trains_and_evaluates_the_pointnet_autoencoder(coll, tmp_path):
-    from opnet.data.collections import save_collection
-
     from test_train import _cli
+
+    from opnet.data.collections import save_collection
 
     manifest = save_collection(coll, tmp_path / "data" / "tiny")
     run = tmp_path / "pn"
-    out = _cli("train", "--collection", str(manifest), "--architecture", "pointnet", "--points", "32", "--epochs", "2",
-               "--hidden", "32", "--batch-size", "8", "--run-dir", str(run))
+    out = _cli(
+        "train",
+        "--collection",
+        str(manifest),
+        "--architecture",
+        "pointnet",
+        "--points",
+        "32",
+        "--epochs",
+        "2",
+        "--hidden",
+        "32",
+        "--batch-size",
+        "8",
+        "--run-dir",
+        str(run),
+    )
     assert out.returncode == 0, out.stderr
     assert isinstance(train.load_model(run), PointNetAutoencoder) and train.load_model(run).n_points == 32
     out = _cli("evaluate", "--run-dir", str(run), "--collection", str(manifest), "--json", str(tmp_path / "e.json"))
     assert out.returncode == 0, out.stderr
     assert "PointNet AE" in out.stdout and "Nearest neighbour (Int+Ext)" in out.stdout
-    bad = _cli("train", "--collection", str(manifest), "--architecture", "pointnet", "--channels", "Ext",
-               "--run-dir", str(tmp_path / "x"))
+    bad = _cli(
+        "train",
+        "--collection",
+        str(manifest),
+        "--architecture",
+        "pointnet",
+        "--channels",
+        "Ext",
+        "--run-dir",
+        str(tmp_path / "x"),
+    )
     assert bad.returncode == 1 and "OperatorNet's options" in bad.stderr
 
 
@@ -141,8 +167,9 @@ def test_operator_algebra_hands_the_decoder_the_combined_operators(coll, scheme)
     alg.analogy(1, 2, 1)  # A : B :: A : B
     np.testing.assert_allclose(seen[-1][0], D[1], atol=1e-8)
     alg.analogy(1, 2, 3)
-    expected = [opnet.analogy(*D[:, c]) if scheme == "multiplicative" else D[2, c] + D[1, c] - D[0, c]
-                for c in range(3)]
+    expected = [
+        opnet.analogy(*D[:, c]) if scheme == "multiplicative" else D[2, c] + D[1, c] - D[0, c] for c in range(3)
+    ]
     np.testing.assert_allclose(seen[-1][0], expected, atol=1e-10)
 
 
@@ -159,8 +186,11 @@ def test_operatornet_and_pointnet_algebras_decode_shapes(coll):
     net, _ = train.fit(coll, epochs=2, **FAST)
     pn, _ = train.fit(coll, architecture="pointnet", n_points=32, epochs=2, **FAST)
     n = coll.vertices.shape[1]
-    for alg in (apps.operatornet_algebra(net, coll), apps.operatornet_algebra(net, coll, scheme="linear"),
-                apps.pointnet_algebra(pn, coll)):
+    for alg in (
+        apps.operatornet_algebra(net, coll),
+        apps.operatornet_algebra(net, coll, scheme="linear"),
+        apps.pointnet_algebra(pn, coll),
+    ):
         path = alg.interpolate(0, 1, np.linspace(0, 1, 4))
         assert path.shape == (4, n, 3) and np.isfinite(path).all()
         np.testing.assert_allclose(path[0], alg.reconstruct(0)[0], atol=1e-5)  # t = 0 is the start shape's decoding
@@ -260,8 +290,10 @@ def test_quadruples_put_subjects_and_poses_in_their_roles(humans):
     assert len(pose) == len(body) == 6 and pose.A.shape == (6, *humans.vertices.shape[1:])
     unseen = humans.params["phenotypes"][humans.indices("test_subjects")]
     controls = humans.params["controls"]
-    for Q, roles in ((pose, dict(A=(0, 0), B=(0, 1), C=(1, 0), X=(1, 1))),
-                     (body, dict(A=(0, 0), B=(1, 0), C=(0, 1), X=(1, 1)))):  # (subject a|b, pose p|q)
+    for Q, roles in (
+        (pose, dict(A=(0, 0), B=(0, 1), C=(1, 0), X=(1, 1))),
+        (body, dict(A=(0, 0), B=(1, 0), C=(0, 1), X=(1, 1))),
+    ):  # (subject a|b, pose p|q)
         assert np.all(humans.split[Q.poses] == "test")  # poses of held-out sequences only ...
         assert all(np.any(np.all(np.isclose(unseen, s), axis=1)) for s in Q.phenotypes.reshape(-1, 6))  # unseen bodies
         assert np.all(Q.phenotypes[:, 0] != Q.phenotypes[:, 1]).any(axis=-1).all()

@@ -2,6 +2,7 @@
 what it got and what to do (issue 8's classes: near-degenerate geometry, shape mismatches, types, user-defined
 inner products, non-finite values, empty batches). Storage is tested in test_collections, the documentation's
 code blocks in test_docs."""
+
 import warnings
 
 import numpy as np
@@ -25,6 +26,7 @@ def _sliver(base, scale):
 
 
 # -- near-degenerate geometry ---------------------------------------------------------------------------------
+
 
 def test_near_degenerate_faces_warn_and_collapsed_ones_are_refused_with_their_index(base, base_basis):
     with pytest.warns(opnet.MeshWarning, match=r"below 0.0001 \(worst: face 100"):
@@ -70,8 +72,12 @@ def test_the_quality_tolerance_is_scale_free(base, scale):
 def test_warnings_point_at_the_callers_line(base, base_basis):
     """However deep the check, the warning names the line of the user's code (this file)."""
     sliver = _sliver(base, 1e-5)
-    for call in (lambda: opnet.Mesh(sliver, base.faces), lambda: base.with_vertices(sliver),
-                 lambda: opnet.shape_difference(base_basis, sliver), lambda: opnet.shape_differences(base_basis, sliver[None])):
+    for call in (
+        lambda: opnet.Mesh(sliver, base.faces),
+        lambda: base.with_vertices(sliver),
+        lambda: opnet.shape_difference(base_basis, sliver),
+        lambda: opnet.shape_differences(base_basis, sliver[None]),
+    ):
         with pytest.warns(opnet.MeshWarning) as record:
             call()
         assert [w.filename for w in record] == [__file__]  # once, here
@@ -106,6 +112,7 @@ def test_extreme_scales_are_named_and_normalize_area_accepts_them(base, scale):
 
 # -- shape mismatches get the right hint ----------------------------------------------------------------------
 
+
 def test_a_path_where_a_mesh_is_expected_names_load_mesh(base_basis):
     with pytest.raises(TypeError, match=r"opnet.load_mesh\(path\)"):
         opnet.shape_difference(base_basis, "target.ply")
@@ -132,6 +139,7 @@ def test_a_triangle_soup_gets_advice_that_works(base):
 
 # -- types ----------------------------------------------------------------------------------------------------
 
+
 def _numpy_entry_points(base, basis):
     """(name of the argument, a call taking the argument) for the numpy entry points."""
     V, k = base.vertices, basis.k
@@ -148,7 +156,11 @@ def _numpy_entry_points(base, basis):
         ("K", lambda x: opnet.pinv_psd(x), D),
         ("f", lambda x: basis.project(x), V),
         ("vertices", lambda x: opnet.vertex_areas(x, base.faces), V),
-        ("operators", lambda x: opnet.reconstruct(x, basis, channels=("area",), steps=1, progress=False), D[None, None]),
+        (
+            "operators",
+            lambda x: opnet.reconstruct(x, basis, channels=("area",), steps=1, progress=False),
+            D[None, None],
+        ),
         ("matrix", lambda x: opnet.FunctionalMap(x, basis, basis).matrix, D),
     ]
 
@@ -166,8 +178,9 @@ def test_strings_are_refused_and_lists_and_tensors_converted(base, base_basis):
         expected = call(good)
         for converted in (good.tolist(), torch.tensor(good)):
             got = call(converted)
-            np.testing.assert_allclose(got[0] if isinstance(got, tuple) else got,
-                                       expected[0] if isinstance(expected, tuple) else expected)
+            np.testing.assert_allclose(
+                got[0] if isinstance(got, tuple) else got, expected[0] if isinstance(expected, tuple) else expected
+            )
 
 
 def test_the_network_converts_what_it_can_without_loss_and_names_the_rest():
@@ -179,7 +192,10 @@ def test_the_network_converts_what_it_can_without_loss_and_names_the_rest():
     half = torch.from_numpy(ops).half()  # widened without loss
     torch.testing.assert_close(net(half), net(half.float()))
     for lossy in (torch.from_numpy(ops).double(), ops.astype(np.float64)):
-        with pytest.raises(TypeError, match=r"operators is float64 of shape \(2, 3, 6, 6\) but this network computes in float32.*x.float\(\)"):
+        with pytest.raises(
+            TypeError,
+            match=r"operators is float64 of shape \(2, 3, 6, 6\) but this network computes in float32.*x.float\(\)",
+        ):
             net(lossy)
     with pytest.raises(TypeError, match="operators must hold real numbers"):
         net(torch.from_numpy(ops) * (1 + 0j))
@@ -187,8 +203,9 @@ def test_the_network_converts_what_it_can_without_loss_and_names_the_rest():
         net("operators.npy")
     with pytest.raises(ValueError, match=r"operators must have shape \(B, 3, 6, 6\)"):
         net(ops[:, :2])
-    np.testing.assert_allclose(opnet.evaluate.predict(net, ops.astype(np.float64)), expected.double().detach().numpy(),
-                               rtol=1e-6)  # predict is the converting entry point
+    np.testing.assert_allclose(
+        opnet.evaluate.predict(net, ops.astype(np.float64)), expected.double().detach().numpy(), rtol=1e-6
+    )  # predict is the converting entry point
     pointnet = opnet.model.PointNetAutoencoder(20, n_points=10, latent=8, hidden=8)
     with pytest.raises(TypeError, match="vertices is float64"):
         pointnet(torch.zeros(1, 20, 3, dtype=torch.float64))
@@ -207,6 +224,7 @@ def test_the_loss_takes_numpy_targets_and_names_bad_arguments():
 
 
 # -- user-defined inner products ------------------------------------------------------------------------------
+
 
 class _WrongShape(opnet.InnerProduct):
     name = "wrong shape"
@@ -230,12 +248,18 @@ class _Negative(opnet.InnerProduct):
         return -evecs.T @ evecs
 
 
-@pytest.mark.parametrize("ip, message", [
-    (_WrongShape(), r"_WrongShape.project \(inner product 'wrong shape'\) returned float64 ndarray of shape \(3, 3\)"),
-    (_NotSymmetric(), "_NotSymmetric.project .* non-symmetric"),
-    (_NotFinite(), "_NotFinite.project .* NaN or infinite"),
-    (_Negative(), "_Negative.project .* on the base: .* not positive semi-definite"),
-])
+@pytest.mark.parametrize(
+    "ip, message",
+    [
+        (
+            _WrongShape(),
+            r"_WrongShape.project \(inner product 'wrong shape'\) returned float64 ndarray of shape \(3, 3\)",
+        ),
+        (_NotSymmetric(), "_NotSymmetric.project .* non-symmetric"),
+        (_NotFinite(), "_NotFinite.project .* NaN or infinite"),
+        (_Negative(), "_Negative.project .* on the base: .* not positive semi-definite"),
+    ],
+)
 def test_a_faulty_inner_product_is_named(base_basis, targets, ip, message):
     with pytest.raises(ValueError, match=message):
         opnet.shape_difference(base_basis, targets[0], ip)
@@ -250,6 +274,7 @@ def test_the_built_in_inner_products_pass_the_checks(base_basis, targets):
 
 
 # -- non-finite values and empty batches ----------------------------------------------------------------------
+
 
 def test_non_finite_values_are_named_by_argument(base, base_basis):
     for name, call, good in _numpy_entry_points(base, base_basis):
@@ -289,6 +314,7 @@ def test_empty_batches_are_refused():
 
 
 # -- the shared argument checks ---------------------------------------------------------------------------------
+
 
 def test_the_shared_checks():
     assert check_int("n", np.int64(3)) == 3 and check_int("n", None, none_ok=True) is None

@@ -1,12 +1,12 @@
 """Anny bodies, heads and hands (opnet.data.bodies): shapes, validity, motions, determinism."""
+
 import numpy as np
 import pytest
+import torch
 import trimesh
 
 import opnet
 from opnet.data import bodies
-
-import torch
 
 N_BONES = 104
 
@@ -20,8 +20,7 @@ def rng():
 def sample():
     """Random subjects with a mix of action frames and random poses."""
     rng = np.random.default_rng(1)
-    poses = np.concatenate([bodies.action_poses(a, 8)[[2, 4]] for a in bodies.ACTIONS]
-                           + [bodies.random_poses(12, rng)])
+    poses = np.concatenate([bodies.action_poses(a, 8)[[2, 4]] for a in bodies.ACTIONS] + [bodies.random_poses(12, rng)])
     return bodies.random_subjects(len(poses), rng), poses
 
 
@@ -30,8 +29,10 @@ def _world_joints(subjects, poses):
     model = bodies.human_model("1k")
     s = torch.from_numpy(subjects)
     with torch.no_grad():
-        out = model(pose_parameters=torch.from_numpy(poses),
-                    phenotype_kwargs={k: s[:, i] for i, k in enumerate(bodies.PHENOTYPES)})
+        out = model(
+            pose_parameters=torch.from_numpy(poses),
+            phenotype_kwargs={k: s[:, i] for i, k in enumerate(bodies.PHENOTYPES)},
+        )
     posed, rest = out["bone_poses"].numpy(), out["rest_bone_poses"].numpy()
     turn = posed[..., :3, :3] @ np.swapaxes(rest[..., :3, :3], -1, -2)
     return posed[..., :3, 3], turn
@@ -46,6 +47,7 @@ def _signed_flexion(joints, turns, labels, upper, lower, end, hinge):
 
 
 # -- humans ------------------------------------------------------------------------------------
+
 
 def test_shapes_and_dtypes(rng):
     assert bodies.ACTIONS and len(bodies.ACTIONS) >= 10 and len(bodies.PHENOTYPES) == 6
@@ -78,8 +80,9 @@ def test_subjects_are_adults(rng):
 
 
 def test_poses_are_rotations(rng):
-    P = np.concatenate([bodies.action_poses(a, 6, amplitude=1.5) for a in bodies.ACTIONS]
-                       + [bodies.random_poses(50, rng)])
+    P = np.concatenate(
+        [bodies.action_poses(a, 6, amplitude=1.5) for a in bodies.ACTIONS] + [bodies.random_poses(50, rng)]
+    )
     R = P[..., :3, :3]
     assert np.allclose(R @ np.swapaxes(R, -1, -2), np.eye(3), atol=1e-12)
     assert np.allclose(np.linalg.det(R), 1.0)
@@ -135,17 +138,20 @@ def test_resolutions_agree(sample):
 
 def test_knees_and_elbows_never_bend_backwards(rng):
     overbent = bodies.joint_poses({"knee_flex.L": -90, "elbow_flex.R": -90})  # clipped to the limits
-    poses = np.concatenate([bodies.action_poses(a, 16, amplitude=1.3) for a in bodies.ACTIONS]
-                           + [bodies.random_poses(200, rng), overbent])
+    poses = np.concatenate(
+        [bodies.action_poses(a, 16, amplitude=1.3) for a in bodies.ACTIONS] + [bodies.random_poses(200, rng), overbent]
+    )
     subjects = bodies.random_subjects(len(poses), rng)
     joints, turns = _world_joints(subjects, poses)
     labels = bodies.human_model("1k").bone_labels
     elbow = np.array(bodies._LEFT_ELBOW_HINGE)
     for side, mirror in (("L", np.array([1, 1, 1])), ("R", np.array([1, -1, -1]))):
-        knee = _signed_flexion(joints, turns, labels, f"upperleg01.{side}", f"lowerleg01.{side}", f"foot.{side}",
-                               np.array([1.0, 0, 0]))
-        arm = _signed_flexion(joints, turns, labels, f"upperarm01.{side}", f"lowerarm01.{side}", f"wrist.{side}",
-                              elbow * mirror)
+        knee = _signed_flexion(
+            joints, turns, labels, f"upperleg01.{side}", f"lowerleg01.{side}", f"foot.{side}", np.array([1.0, 0, 0])
+        )
+        arm = _signed_flexion(
+            joints, turns, labels, f"upperarm01.{side}", f"lowerarm01.{side}", f"wrist.{side}", elbow * mirror
+        )
         assert knee.min() > 0 and knee.max() < 150, side
         assert arm.min() > 0 and arm.max() < 150, side
 
@@ -185,6 +191,7 @@ def test_deterministic():
 
 # -- heads -------------------------------------------------------------------------------------
 
+
 def test_heads(rng):
     assert tuple(bodies.head_model().facial_action_labels) == bodies.FACIAL_ACTIONS
     assert len(bodies.HEAD_EXPRESSIONS) >= 8
@@ -192,8 +199,12 @@ def test_heads(rng):
     seq = bodies.expression_sequence("smile", 8)
     assert seq.shape == (8, len(bodies.FACIAL_ACTIONS)) and np.allclose(seq[0], 0)
     assert np.isclose(seq[4].max(), 1.0) and np.all(np.diff(seq[:5, bodies.FACIAL_ACTIONS.index("mouthSmileLeft")]) > 0)
-    W = np.concatenate([np.stack([bodies.expression_sequence(e, 2)[1] for e in bodies.HEAD_EXPRESSIONS]),
-                        bodies.random_expressions(10, rng)])
+    W = np.concatenate(
+        [
+            np.stack([bodies.expression_sequence(e, 2)[1] for e in bodies.HEAD_EXPRESSIONS]),
+            bodies.random_expressions(10, rng),
+        ]
+    )
     assert W.min() >= 0 and W.max() <= 1
     V = bodies.head_vertices(bodies.random_subjects(len(W), rng), W)
     assert V.shape == (len(W), f.max() + 1, 3) and V.dtype == np.float64
@@ -206,13 +217,15 @@ def test_heads(rng):
 
 # -- hands -------------------------------------------------------------------------------------
 
+
 def test_hands(rng):
     assert len(bodies.HAND_GESTURES) >= 8
     f = bodies.hand_faces()
     seq = bodies.gesture_sequence("fist", 8)
     assert seq.shape == (8, 21, 4, 4) and np.allclose(seq[0], np.eye(4))
-    P = np.concatenate([np.stack([bodies.gesture_sequence(g, 2)[1] for g in bodies.HAND_GESTURES]),
-                        bodies.random_hand_poses(10, rng)])
+    P = np.concatenate(
+        [np.stack([bodies.gesture_sequence(g, 2)[1] for g in bodies.HAND_GESTURES]), bodies.random_hand_poses(10, rng)]
+    )
     V = bodies.hand_vertices(bodies.random_subjects(len(P), rng), P)
     assert V.shape == (len(P), f.max() + 1, 3) and V.dtype == np.float64
     for v in V:

@@ -1,5 +1,6 @@
 """Collection storage (atomic, checksummed), splits, the evaluation subset and the user-folder loader,
 on toy shapes so that these tests need no body model."""
+
 import hashlib
 import json
 import multiprocessing as mp
@@ -36,7 +37,9 @@ def toy_collection(seed=0, n_subjects=4, groups=("bend", "bulge", "both"), frame
     split = opnet.data.make_splits(subj, grp, rng, n_test_subcollections=2, n_test_subjects=1, n_val_subcollections=1)
     sub = np.array([f"subject{s:02d}/{g}" for s, g in zip(subj, grp)])
     meta = dict(name="toy", preset="quick", resolution="quick", seed=seed, generator_version="test")
-    return assemble(np.stack(V), base.faces, base.vertices, split, sub, {"subject": subj}, meta, k=20, progress=False, n_eval=2)
+    return assemble(
+        np.stack(V), base.faces, base.vertices, split, sub, {"subject": subj}, meta, k=20, progress=False, n_eval=2
+    )
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +51,9 @@ def test_collection_fields(coll):
     N, n = len(coll), coll.faces.max() + 1
     assert coll.vertices.shape == (N, n, 3) and coll.vertices.dtype == np.float32
     assert coll.operators.shape == (N, 3, 20, 20) and coll.operators.dtype == np.float32
-    np.testing.assert_allclose(coll.operators[5, 0], opnet.shape_difference(coll.base_basis, coll.mesh(5), "area"), atol=1e-5)
+    np.testing.assert_allclose(
+        coll.operators[5, 0], opnet.shape_difference(coll.base_basis, coll.mesh(5), "area"), atol=1e-5
+    )
     assert set(coll.split) == {"train", "val", "test", "test_subjects"}
 
 
@@ -257,9 +262,22 @@ def test_an_unusable_data_root_is_found_before_building(coll, tmp_path, monkeypa
 
     def fake_generate(preset, resolution, seed, meta, progress=None):
         built.append(preset)
-        return collections.Collection(**{f: getattr(coll, f) for f in (
-            "vertices", "faces", "operators", "split", "subcollection", "base_basis", "eval_subset", "params")},
-            meta=dict(meta))
+        return collections.Collection(
+            **{
+                f: getattr(coll, f)
+                for f in (
+                    "vertices",
+                    "faces",
+                    "operators",
+                    "split",
+                    "subcollection",
+                    "base_basis",
+                    "eval_subset",
+                    "params",
+                )
+            },
+            meta=dict(meta),
+        )
 
     monkeypatch.setitem(generators.GENERATORS, "humans", (fake_generate, ("1k",)))
     a_file = tmp_path / "a_file"

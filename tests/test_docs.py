@@ -6,6 +6,7 @@ body mesh of another triangulation) and ``my_registrations/`` (meshes in corresp
 ``<!-- docs-test: skip (reason) -->`` is not run. Shell blocks are not run (they start the long jobs); every
 ``python -m opnet ...`` line in them is parsed by the command-line parser, so a renamed flag fails here.
 """
+
 import re
 import shlex
 from pathlib import Path

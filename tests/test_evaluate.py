@@ -1,14 +1,14 @@
 """Evaluation (methods × metrics × test sets) and the reproduction pipeline."""
+
 import json
 
 import numpy as np
 import pytest
+from test_train import tiny_collection
 
 import opnet
 from opnet import evaluate, reproduce, train
 from opnet.data import toy
-
-from test_train import tiny_collection
 
 
 @pytest.fixture(scope="module")
@@ -21,9 +21,17 @@ def test_nearest_neighbour_is_the_brute_force_argmin(coll):
     for channels in (opnet.KINDS, ("extrinsic",), ("area", "conformal")):
         chans = [opnet.KINDS.index(c) for c in channels]
         train_idx = coll.indices("train")
-        brute = [train_idx[np.argmin([np.linalg.norm(coll.operators[i][chans].astype(float) -
-                                                     coll.operators[j][chans].astype(float)) for j in train_idx])]
-                 for i in idx]
+        brute = [
+            train_idx[
+                np.argmin(
+                    [
+                        np.linalg.norm(coll.operators[i][chans].astype(float) - coll.operators[j][chans].astype(float))
+                        for j in train_idx
+                    ]
+                )
+            ]
+            for i in idx
+        ]
         assert list(evaluate.nearest_neighbour(coll, idx, channels, chunk=3)) == brute
     # a training shape's nearest neighbour is itself: zero error
     m = evaluate.nearest_neighbour_method(coll)
@@ -35,7 +43,8 @@ def test_rows_hold_each_method_and_test_set_with_the_paper_metrics(coll):
     methods = [evaluate.base_shape_method(coll), evaluate.nearest_neighbour_method(coll, ("extrinsic",))]
     rows = evaluate.evaluate(coll, methods, extra={"preset": "tiny"})
     assert [(r["method"], r["split"]) for r in rows] == [
-        (m.name, s) for m in methods for s in ("eval_subset", "test", "test_subjects")]
+        (m.name, s) for m in methods for s in ("eval_subset", "test", "test_subjects")
+    ]
     assert rows[0]["method"] == "Base shape" and rows[3]["method"] == "Nearest neighbour (Ext)"
     base = rows[1]
     idx = coll.indices("test")
@@ -82,16 +91,21 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch):
     tiny = tiny_collection("humans")
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: tiny)
     budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, refine_steps=5, refine_shapes=3)
-    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, applications=False,
-                               maps=False)
+    rows = reproduce.reproduce(
+        "quick", tmp_path, budget=budget, device="cpu", progress=False, applications=False, maps=False
+    )
     saved = json.loads((tmp_path / "results.json").read_text())
     assert saved == json.loads(json.dumps(rows))
     t1 = [r for r in saved if r["table"] == "table1"]
     assert {(r["method"], r["split"]) for r in t1} == {
-        (m, s) for m in [*reproduce.TABLE1, *reproduce.OURS, "Nearest neighbour (Int+Ext)", "Base shape"]
-        for s in evaluate.TEST_SETS} | {
-        (m, s) for m in ["Geometric (A+E)", "OperatorNet (Int+Ext) + refinement", "OperatorNet ours (Int+Ext) + refinement"]
-        for s in reproduce.REFINE_SETS}
+        (m, s)
+        for m in [*reproduce.TABLE1, *reproduce.OURS, "Nearest neighbour (Int+Ext)", "Base shape"]
+        for s in evaluate.TEST_SETS
+    } | {
+        (m, s)
+        for m in ["Geometric (A+E)", "OperatorNet (Int+Ext) + refinement", "OperatorNet ours (Int+Ext) + refinement"]
+        for s in reproduce.REFINE_SETS
+    }
     refined = [r for r in t1 if r["method"].endswith("refinement") or r["method"].startswith("Geometric")]
     assert all(r["n_shapes"] == 3 for r in refined)  # at most refine_shapes per test set
     assert all(np.isfinite(r["d_R_before"]) for r in refined if r["method"].endswith("refinement"))
@@ -99,36 +113,75 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch):
     assert len(abl) == 28 and {r["split"] for r in abl} == {"test"}
     assert np.isfinite(reproduce.ablation_table(saved)).all()
     for r in saved:
-        assert {"method", "channels", "depth", "split", "d_R", "d_V", "d_E", "n_shapes", "train_seconds", "preset",
-                "device", "seconds_per_shape"} <= set(r)
+        assert {
+            "method",
+            "channels",
+            "depth",
+            "split",
+            "d_R",
+            "d_V",
+            "d_E",
+            "n_shapes",
+            "train_seconds",
+            "preset",
+            "device",
+            "seconds_per_shape",
+        } <= set(r)
     md = (tmp_path / "results.md").read_text()
     assert "OperatorNet (Int+Ext)" in md and "1.11" in md and "Ablation" in md and "8.61" in md
     assert "OperatorNet ours (Int+Ext)" in md and "s/shape" in md and "refinement changes" in md
-    for name in ("training_curves", "ablation", "reconstructions_test", "reconstructions_test_subjects",
-                 "refinement_curves", "refinement_steps"):
+    for name in (
+        "training_curves",
+        "ablation",
+        "reconstructions_test",
+        "reconstructions_test_subjects",
+        "refinement_curves",
+        "refinement_steps",
+    ):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     # a second call trains nothing more: every run is finished
     mtimes = {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
     assert len(mtimes) == 32
-    reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, figures=False,
-                        applications=False, maps=False)
+    reproduce.reproduce(
+        "quick", tmp_path, budget=budget, device="cpu", progress=False, figures=False, applications=False, maps=False
+    )
     assert mtimes == {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
 
 
 def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatch):
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: humans)
-    budget = reproduce.Budget(epochs=1, ablation_epochs=1, batch_size=64, hidden=16, refine_steps=2, refine_shapes=4,
-                              pointnet_epochs=1, analogies=5, paths=2, apps_refine_shapes=4)
-    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False, maps=False)
+    budget = reproduce.Budget(
+        epochs=1,
+        ablation_epochs=1,
+        batch_size=64,
+        hidden=16,
+        refine_steps=2,
+        refine_shapes=4,
+        pointnet_epochs=1,
+        analogies=5,
+        paths=2,
+        apps_refine_shapes=4,
+    )
+    rows = reproduce.reproduce(
+        "quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False, maps=False
+    )
     assert {r["method"] for r in rows if r["table"] == "table1"} >= {reproduce.POINTNET}
     assert (tmp_path / "runs" / "table1-pointnet" / "best.pt").is_file()
-    names = ["OperatorNet (mult.)", "OperatorNet (linear)", "OperatorNet ours (mult.)",
-             "OperatorNet (mult.) + refinement", reproduce.POINTNET, "Nearest neighbour"]
+    names = [
+        "OperatorNet (mult.)",
+        "OperatorNet (linear)",
+        "OperatorNet ours (mult.)",
+        "OperatorNet (mult.) + refinement",
+        reproduce.POINTNET,
+        "Nearest neighbour",
+    ]
     ana = [r for r in rows if r["table"] == "analogy"]
     assert [(r["method"], r["kind"]) for r in ana] == [(m, k) for m in names for k in ("pose", "body")]
     assert all(r["n"] == (4 if "refinement" in r["method"] else 5) and np.isfinite(r["d_R"]) for r in ana)
     itp = [r for r in rows if r["table"] == "interpolation"]
-    assert [(r["method"], r["kind"]) for r in itp] == [(m, k) for k in ("pose", "body") for m in ["Ground truth", *names]]
+    assert [(r["method"], r["kind"]) for r in itp] == [
+        (m, k) for k in ("pose", "body") for m in ["Ground truth", *names]
+    ]
     md = (tmp_path / "results.md").read_text()
     assert "## Applications" in md and "PointNet AE / OperatorNet" in md and "smoothness" in md
     for name in ("interpolation_pose", "interpolation_body", "analogy_pose", "analogy_body"):
@@ -136,8 +189,17 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatc
     assert all(np.isfinite(r["d_R_before"]) for r in ana if "refinement" in r["method"])
     latest = tmp_path / "runs" / "table1-pointnet" / "latest.pt"
     mtime = latest.stat().st_mtime
-    again = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False,
-                                figures=False, refine=False, maps=False)
+    again = reproduce.reproduce(
+        "quick",
+        tmp_path,
+        budget=budget,
+        device="cpu",
+        progress=False,
+        ablation=False,
+        figures=False,
+        refine=False,
+        maps=False,
+    )
     assert latest.stat().st_mtime == mtime  # the finished PointNet run is reused, not retrained
     assert "OperatorNet (mult.) + refinement" not in {r["method"] for r in again if r["table"] == "analogy"}
 
@@ -149,8 +211,17 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: few)
     budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, discretisation_shapes=3)
     data = tmp_path / "data"
-    rows = reproduce.reproduce("quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False,
-                               applications=False, refine=False, data_root=data)
+    rows = reproduce.reproduce(
+        "quick",
+        tmp_path,
+        budget=budget,
+        device="cpu",
+        progress=False,
+        ablation=False,
+        applications=False,
+        refine=False,
+        data_root=data,
+    )
     comp = [r for r in rows if r["table"] == "table1" and "(Comp)" in r["method"]]
     assert {(r["method"], r["split"]) for r in comp} == {(m, s) for m in reproduce.COMP for s in evaluate.TEST_SETS}
     comp = opnet.data.mapped_collection(few, "2k", root=data)  # cached by reproduce
@@ -161,7 +232,8 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
     disc = [r for r in rows if r["table"] == "discretisation"]
     encodings = [("1k", "exact"), *reproduce.DISCRETISATIONS]
     assert [(r["resolution"], r["maps"], r["method"]) for r in disc] == [
-        (*e, m) for e in encodings for m in reproduce.DISCRETISATION_NETWORKS]
+        (*e, m) for e in encodings for m in reproduce.DISCRETISATION_NETWORKS
+    ]
     assert all(r["n_shapes"] == 3 and np.isfinite(r["d_R"]) for r in disc)
     errors = {(r["resolution"], r["maps"]): r["map_error"] for r in disc}
     assert 0 < errors["2k", "computed"] < 0.05 and 0 < errors["5k", "computed"] < 0.05  # metres

@@ -1,4 +1,5 @@
 """Theorem 1 (Gram recovery) and the metrics of section 6 (eq. 9, d_V, d_E)."""
+
 import numpy as np
 import pytest
 from scipy.linalg import orthogonal_procrustes
@@ -60,7 +61,10 @@ def test_d_R_is_the_minimum_over_rigid_motions(targets):
         R = Rotation.from_rotvec(p[:3]).as_matrix()
         return np.mean(np.sum((Y @ R.T + p[3:] - X) ** 2, axis=1))
 
-    brute = min(minimize(loss, np.r_[Rotation.random(random_state=s).as_rotvec(), 0, 0, 0], method="Powell").fun for s in range(6))
+    brute = min(
+        minimize(loss, np.r_[Rotation.random(random_state=s).as_rotvec(), 0, 0, 0], method="Powell").fun
+        for s in range(6)
+    )
     assert opnet.d_R(X, Y) <= brute + 1e-9
     assert opnet.d_R(X, Y) == pytest.approx(brute, rel=1e-3)
 

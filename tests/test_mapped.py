@@ -1,4 +1,5 @@
 """Collections through maps from another triangulation (opnet.data.mapped_collection) and Collection.subset."""
+
 import numpy as np
 import pytest
 

@@ -1,4 +1,5 @@
 """Maps between triangulations (opnet.matching) and the operators of any mesh through them."""
+
 import warnings
 
 import numpy as np
@@ -32,8 +33,12 @@ def test_pull_back_through_the_identity_is_the_fast_path(base_basis, targets, ki
     ip = opnet.get_inner_product(kind)
     t = targets[2]
     identity = sp.identity(t.n_vertices, format="csr")
-    np.testing.assert_allclose(ip.pull_back(t.vertices, t.faces, identity, base_basis.evecs),
-                               ip.project(t.vertices, t.faces, base_basis.evecs), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(
+        ip.pull_back(t.vertices, t.faces, identity, base_basis.evecs),
+        ip.project(t.vertices, t.faces, base_basis.evecs),
+        rtol=1e-10,
+        atol=1e-12,
+    )
 
 
 @pytest.mark.parametrize("kind", ["conformal", Gram()])
@@ -48,8 +53,9 @@ def test_default_pull_back_is_the_papers_formula_with_a_full_target_basis(small_
     C = full.evecs.T @ (full.mass[:, None] * (P @ basis.evecs))
     ip = opnet.get_inner_product(kind)
     slow = C.T @ ip.project(target.vertices, target.faces, full.evecs) @ C
-    np.testing.assert_allclose(ip.pull_back(target.vertices, target.faces, P, basis.evecs), slow,
-                               rtol=1e-7, atol=1e-9 * np.abs(slow).max())
+    np.testing.assert_allclose(
+        ip.pull_back(target.vertices, target.faces, P, basis.evecs), slow, rtol=1e-7, atol=1e-9 * np.abs(slow).max()
+    )
 
 
 def test_encode_with_the_base_triangulation_or_a_vertex_map_is_the_fast_path(base, base_basis, targets):
@@ -149,7 +155,9 @@ def test_bad_input_gets_errors_that_say_what_to_do(small_shapes):
         opnet.encode(fine, basis, fmap=np.zeros(3, dtype=int))
     with pytest.raises(ValueError, match="None, 'computed'"):
         opnet.encode(fine, basis, fmap="nearest")
-    half = opnet.Mesh(fine.vertices, fine.faces[fine.vertices[fine.faces].mean(1)[:, 2] > 0], keep_largest_component=True)
+    half = opnet.Mesh(
+        fine.vertices, fine.faces[fine.vertices[fine.faces].mean(1)[:, 2] > 0], keep_largest_component=True
+    )
     with pytest.raises(ValueError, match="boundary edges"):
         opnet.compute_map(basis, half)
     with pytest.raises(ValueError, match="k_init"):
@@ -166,8 +174,9 @@ def test_bad_input_gets_errors_that_say_what_to_do(small_shapes):
         opnet.matching.operators_through_map([])
     other = opnet.eigenbasis(sphere, basis.k)
     with pytest.raises(ValueError, match="different bases"):
-        opnet.matching.operators_through_map([opnet.matching.closest_point_map(basis, fine),
-                                              opnet.matching.closest_point_map(other, fine)])
+        opnet.matching.operators_through_map(
+            [opnet.matching.closest_point_map(basis, fine), opnet.matching.closest_point_map(other, fine)]
+        )
 
 
 def test_operators_through_a_list_of_maps_equal_one_at_a_time(small_shapes):
@@ -197,7 +206,7 @@ def test_closest_points_on_faces_matches_brute_force(small_shapes):
     best = np.sqrt(((points[:, None] - samples[None]) ** 2).sum(-1).min(1))
     got = np.linalg.norm(points - found, axis=1)
     assert np.all(got <= best + 1e-12)  # never further than any sample
-    assert np.all(got >= best - 0.02)   # and as close as the sampling resolves
+    assert np.all(got >= best - 0.02)  # and as close as the sampling resolves
 
 
 def test_decode_accepts_one_or_many_and_picks_the_networks_channels(humans):

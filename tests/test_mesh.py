@@ -1,4 +1,5 @@
 """Tests for opnet.Mesh, opnet.MeshError and opnet.load_mesh."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -46,6 +47,7 @@ def two_tetrahedra() -> tuple[np.ndarray, np.ndarray]:
 # ---------------------------------------------------------------------------------------------
 # valid construction
 # ---------------------------------------------------------------------------------------------
+
 
 def test_tetrahedron_basic_properties():
     m = opnet.Mesh(TET_V, TET_F)
@@ -116,6 +118,7 @@ def test_with_vertices_keeps_faces_and_validates():
 # ---------------------------------------------------------------------------------------------
 # bad input -> MeshError naming the problem
 # ---------------------------------------------------------------------------------------------
+
 
 def _with(v_changes=None, f=None):
     v = TET_V.copy()
@@ -210,8 +213,9 @@ def test_float_faces_with_non_integer_values(bad):
         opnet.Mesh(TET_V, f)
 
 
-@pytest.mark.parametrize("faces", [TET_F.astype(str), TET_F.astype(bool), TET_F.astype(complex)],
-                         ids=["str", "bool", "complex"])
+@pytest.mark.parametrize(
+    "faces", [TET_F.astype(str), TET_F.astype(bool), TET_F.astype(complex)], ids=["str", "bool", "complex"]
+)
 def test_faces_non_integer_dtype(faces):
     with pytest.raises(opnet.MeshError, match="dtype"):
         opnet.Mesh(TET_V, faces)
@@ -304,6 +308,7 @@ def test_mesh_error_is_a_value_error():
 # keep_largest_component
 # ---------------------------------------------------------------------------------------------
 
+
 def test_keep_largest_component_maps_back_to_input():
     vs, fs = icosphere(1)  # 42 vertices
     vt, ft = TET_V + [5.0, 0.0, 0.0], TET_F
@@ -356,6 +361,7 @@ def test_keep_largest_component_too_small():
 # normalize_area
 # ---------------------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("scale", [1e-3, 1.0, 250.0])
 def test_normalize_area(scale):
     v, f = shuffled_icosphere()
@@ -388,6 +394,7 @@ def test_normalize_area_with_keep_largest_component():
 # ---------------------------------------------------------------------------------------------
 # operators
 # ---------------------------------------------------------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def meshes():
@@ -442,6 +449,7 @@ def test_mass_sums_to_total_area(meshes, name):
 # ---------------------------------------------------------------------------------------------
 # load_mesh
 # ---------------------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("ext", [".ply", ".obj", ".off"])
 def test_load_mesh_round_trip_preserves_order(tmp_path, ext):
@@ -556,7 +564,9 @@ def test_load_obj_with_texture_seams_keeps_vertex_order(tmp_path):
     sphere = trimesh.creation.icosphere(1)
     lines = [f"v {x} {y} {z}" for x, y, z in sphere.vertices]
     lines += [f"vt {u} {v}" for u, v in np.random.default_rng(0).random((3 * len(sphere.faces), 2))]
-    lines += [f"f {a + 1}/{3 * i + 1} {b + 1}/{3 * i + 2} {c + 1}/{3 * i + 3}" for i, (a, b, c) in enumerate(sphere.faces)]
+    lines += [
+        f"f {a + 1}/{3 * i + 1} {b + 1}/{3 * i + 2} {c + 1}/{3 * i + 3}" for i, (a, b, c) in enumerate(sphere.faces)
+    ]
     path = tmp_path / "uv.obj"
     path.write_text("\n".join(lines) + "\n")
     mesh = opnet.load_mesh(path)

@@ -1,4 +1,5 @@
 """OperatorNet and its rigid-motion-invariant loss (eq. 9)."""
+
 import numpy as np
 import pytest
 import torch
@@ -33,7 +34,9 @@ def test_bad_configurations_and_inputs():
 
 def _random_pair(n=40, seed=0):
     g = torch.Generator().manual_seed(seed)
-    return torch.randn(3, n, 3, generator=g, dtype=torch.float64), torch.randn(3, n, 3, generator=g, dtype=torch.float64)
+    return torch.randn(3, n, 3, generator=g, dtype=torch.float64), torch.randn(
+        3, n, 3, generator=g, dtype=torch.float64
+    )
 
 
 def test_loss_is_eq9_and_invariant_to_rigid_motions_of_the_prediction():

@@ -1,7 +1,9 @@
 """The project's files agree with each other: environment.yml, pyproject.toml, the public API."""
+
 import re
-import tomllib
 from pathlib import Path
+
+import tomllib
 
 import opnet
 
@@ -19,7 +21,7 @@ def test_environment_yml_names_the_same_packages_as_pyproject():
     conda, pip = set(), []
     text = (ROOT / "environment.yml").read_text()
     in_pip = False
-    for line in text[text.index("dependencies:"):].splitlines()[1:]:
+    for line in text[text.index("dependencies:") :].splitlines()[1:]:
         item = line.split("#")[0].strip()
         if item == "- pip:":
             in_pip = True
@@ -34,6 +36,15 @@ def test_environment_yml_names_the_same_packages_as_pyproject():
 def test_public_api_is_importable_and_complete():
     for name in opnet.__all__:
         assert hasattr(opnet, name), name
-    for name in ("Mesh", "MeshError", "load_mesh", "eigenbasis", "shape_difference", "gram_matrix",
-                 "recover_embedding", "interpolate", "analogy"):
+    for name in (
+        "Mesh",
+        "MeshError",
+        "load_mesh",
+        "eigenbasis",
+        "shape_difference",
+        "gram_matrix",
+        "recover_embedding",
+        "interpolate",
+        "analogy",
+    ):
         assert name in opnet.__all__

@@ -1,12 +1,12 @@
 """Reconstruction by operator matching (opnet.reconstruct): the geometric baseline and refinement."""
+
 import numpy as np
 import pytest
 import torch
+from tqdm.auto import tqdm
 
 import opnet
 from opnet.data import toy
-from tqdm.auto import tqdm
-
 from opnet.geometric import _adam, _lbfgs, reconstruct
 
 
@@ -19,8 +19,9 @@ def problem(base_basis, targets):
 def test_geometric_baseline_recovers_toy_shapes(base_basis, problem):
     X, ops = problem
     curves = []
-    R = reconstruct(ops, base_basis, steps=60, smoothness=0.0, progress=False,
-                    callback=lambda step, Xs, m: curves.append(m.numpy()))
+    R = reconstruct(
+        ops, base_basis, steps=60, smoothness=0.0, progress=False, callback=lambda step, Xs, m: curves.append(m.numpy())
+    )
     assert R.shape == X.shape and R.dtype == np.float64 and np.isfinite(R).all()
     before = opnet.d_R(X, np.broadcast_to(base_basis.mesh.vertices, X.shape))
     after = opnet.d_R(X, R)
@@ -34,7 +35,7 @@ def test_geometric_baseline_recovers_toy_shapes(base_basis, problem):
 def test_shapes_are_independent_in_a_batch(base_basis, problem):
     X, ops = problem
     together = reconstruct(ops, base_basis, steps=15, progress=False)
-    alone = np.concatenate([reconstruct(ops[i:i + 1], base_basis, steps=15, progress=False) for i in range(2)])
+    alone = np.concatenate([reconstruct(ops[i : i + 1], base_basis, steps=15, progress=False) for i in range(2)])
     assert np.allclose(together, alone, atol=1e-9)
 
 
@@ -50,6 +51,7 @@ def test_ground_truth_is_a_fixed_point_and_refinement_helps(base_basis, problem)
 @pytest.mark.parametrize("minimise", [_adam, _lbfgs])
 def test_a_diverging_step_never_reaches_the_result(minimise):
     """An objective that is NaN past a wall (like a collapsing triangle): the result is the best finite iterate."""
+
     def objective(X, rows=slice(None)):
         f = ((X - 3.0) ** 2).sum((-1, -2))
         f = torch.where(X[:, 0, 0] > 1.0, torch.full_like(f, float("nan")), f)
@@ -120,8 +122,16 @@ def test_a_shape_already_matched_costs_nothing_and_does_not_break_the_batch(base
     np.testing.assert_array_equal(mixed[0], base)  # the base matches its own operators: it stays
     assert np.isfinite(mixed).all()
     # numpy scalars and "auto" are accepted like elsewhere in opnet
-    reconstruct(exact[:1], base_basis, init=X[:1], steps=1, smoothness=np.float32(1), lr=np.float64(1), device="auto",
-                progress=False)
+    reconstruct(
+        exact[:1],
+        base_basis,
+        init=X[:1],
+        steps=1,
+        smoothness=np.float32(1),
+        lr=np.float64(1),
+        device="auto",
+        progress=False,
+    )
 
 
 def test_truncated_operators_are_exact_and_coarse_to_fine_runs(base_basis, problem):
@@ -129,13 +139,24 @@ def test_truncated_operators_are_exact_and_coarse_to_fine_runs(base_basis, probl
 
     X, ops = problem
     for m in (5, 12, 29):
-        np.testing.assert_allclose(truncate_operators(ops, base_basis, opnet.KINDS, m),
-                                   opnet.shape_differences(base_basis.truncate(m), X), atol=1e-10)
+        np.testing.assert_allclose(
+            truncate_operators(ops, base_basis, opnet.KINDS, m),
+            opnet.shape_differences(base_basis.truncate(m), X),
+            atol=1e-10,
+        )
     steps = []
-    R = reconstruct(ops, base_basis, steps=10, coarse_to_fine=(10, 20), progress=False,
-                    callback=lambda step, Xs, m: steps.append(step))
+    R = reconstruct(
+        ops,
+        base_basis,
+        steps=10,
+        coarse_to_fine=(10, 20),
+        progress=False,
+        callback=lambda step, Xs, m: steps.append(step),
+    )
     assert steps == list(range(31))  # three stages of 10 steps, numbered on
-    assert np.isfinite(R).all() and np.all(opnet.d_R(X, R) < opnet.d_R(X, np.broadcast_to(base_basis.mesh.vertices, X.shape)))
+    assert np.isfinite(R).all() and np.all(
+        opnet.d_R(X, R) < opnet.d_R(X, np.broadcast_to(base_basis.mesh.vertices, X.shape))
+    )
     for bad in ((20, 10), (0,), (30,), (10.5,)):
         with pytest.raises(ValueError, match="coarse_to_fine"):
             reconstruct(ops, base_basis, coarse_to_fine=bad, progress=False)

@@ -1,4 +1,5 @@
 """Shape differences against the paper's formulas (eqs. 1–4, 7–8)."""
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -93,7 +94,9 @@ def test_truncated_target_basis_converges_to_full(base_basis, targets, kind):
     errors = []
     for k_i in (40, 150, targets[1].n_vertices):
         tb = opnet.eigenbasis(targets[1], k_i)
-        errors.append(rel(opnet.shape_difference(base_basis, targets[1], kind, fmap=opnet.identity_fmap(base_basis, tb)), fast))
+        errors.append(
+            rel(opnet.shape_difference(base_basis, targets[1], kind, fmap=opnet.identity_fmap(base_basis, tb)), fast)
+        )
     assert errors[2] < 1e-9
     assert errors[1] < errors[0]
 
@@ -151,12 +154,22 @@ def test_bad_inputs_get_clear_errors(base, base_basis, targets):
         opnet.shape_difference(base_basis, targets[0], "volume")
     small = opnet.data.toy.capsule("quick").with_vertices(base.vertices)
     with pytest.raises(ValueError, match="fmap"):
-        opnet.shape_difference(base_basis, opnet.Mesh(small.vertices[:-4], small.faces[np.all(small.faces < small.n_vertices - 4, axis=1)], keep_largest_component=True), "area")
+        opnet.shape_difference(
+            base_basis,
+            opnet.Mesh(
+                small.vertices[:-4],
+                small.faces[np.all(small.faces < small.n_vertices - 4, axis=1)],
+                keep_largest_component=True,
+            ),
+            "area",
+        )
     with pytest.raises(TypeError, match="Eigenbasis"):
         opnet.shape_difference(base.vertices, targets[0], "area")
     other = opnet.eigenbasis(base, 10)
     with pytest.raises(ValueError, match="fmap.source"):
-        opnet.shape_difference(base_basis, targets[0], "area", fmap=opnet.identity_fmap(other, opnet.eigenbasis(targets[0], 10)))
+        opnet.shape_difference(
+            base_basis, targets[0], "area", fmap=opnet.identity_fmap(other, opnet.eigenbasis(targets[0], 10))
+        )
     with pytest.raises(ValueError, match=r"\(B, \d+, 3\)"):
         opnet.shape_differences(base_basis, base.vertices)
     with pytest.raises(TypeError, match="sequence"):
@@ -184,7 +197,9 @@ def test_soft_maps_are_linear_in_the_correspondence(base_basis, targets):
     p1, p2 = rng.integers(0, n0, n), rng.integers(0, n0, n)
     P = 0.25 * sp.csr_matrix((np.ones(n), (np.arange(n), p1)), shape=(n, n0))
     P = P + 0.75 * sp.csr_matrix((np.ones(n), (np.arange(n), p2)), shape=(n, n0))
-    expected = 0.25 * opnet.fmap_from_p2p(base_basis, tb, p1).matrix + 0.75 * opnet.fmap_from_p2p(base_basis, tb, p2).matrix
+    expected = (
+        0.25 * opnet.fmap_from_p2p(base_basis, tb, p1).matrix + 0.75 * opnet.fmap_from_p2p(base_basis, tb, p2).matrix
+    )
     np.testing.assert_allclose(opnet.fmap_from_soft_map(base_basis, tb, P).matrix, expected, atol=1e-13)
 
 

@@ -1,4 +1,5 @@
 """Tests for opnet.eigenbasis / opnet.Eigenbasis and the batched weights."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -7,9 +8,9 @@ import pytest
 import trimesh
 
 import opnet
+from opnet import spectral
 from opnet.data import toy
 from opnet.mesh import unique_edges
-from opnet import spectral
 
 _DENSE_FRACTION = getattr(spectral, "_DENSE_FRACTION", 0.3)
 

@@ -1,4 +1,5 @@
 """Differentiable shape differences (opnet.torch_ops) against the numpy fast path and finite differences."""
+
 import numpy as np
 import pytest
 import torch
@@ -34,8 +35,9 @@ def test_float32_and_identity_at_base(base_basis, deformed):
     at_base = module(torch.tensor(base_basis.mesh.vertices[None]))[0]
     k = base_basis.k
     assert torch.allclose(at_base[0], torch.eye(k, dtype=torch.float64), atol=1e-10)  # area: D = I
-    assert torch.allclose(at_base[2], torch.eye(k, dtype=torch.float64), atol=1e-8) or \
-        torch.allclose(at_base[2][1:, 1:], torch.eye(k - 1, dtype=torch.float64), atol=1e-8)  # constant in the kernel
+    assert torch.allclose(at_base[2], torch.eye(k, dtype=torch.float64), atol=1e-8) or torch.allclose(
+        at_base[2][1:, 1:], torch.eye(k - 1, dtype=torch.float64), atol=1e-8
+    )  # constant in the kernel
 
 
 def test_invariant_to_rigid_motions(base_basis, deformed):
@@ -68,8 +70,9 @@ def test_gradient_is_not_zero_and_points_back(base_basis, deformed):
 
 
 def test_functional_shorthand_and_bad_input(base_basis, deformed):
-    assert torch.allclose(shape_differences(base_basis, torch.tensor(deformed)),
-                          ShapeDifferences(base_basis)(torch.tensor(deformed)))
+    assert torch.allclose(
+        shape_differences(base_basis, torch.tensor(deformed)), ShapeDifferences(base_basis)(torch.tensor(deformed))
+    )
     module = ShapeDifferences(base_basis)
     n = base_basis.mesh.n_vertices
     with pytest.raises(ValueError, match=rf"\(B, {n}, 3\)"):

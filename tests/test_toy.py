@@ -1,4 +1,5 @@
 """The toy shapes are closed, outward-oriented, in correspondence, and deform where they say."""
+
 import numpy as np
 import pytest
 
@@ -10,7 +11,9 @@ from opnet.data import toy
 def test_capsule_is_a_closed_outward_surface(preset):
     m = toy.capsule(preset)
     r, length = 0.25, 2.0
-    assert opnet.mesh_volume(m.vertices, m.faces) == pytest.approx(np.pi * r**2 * length + 4 / 3 * np.pi * r**3, rel=0.04)  # inscribed 16-gon: -2.6 %
+    assert opnet.mesh_volume(m.vertices, m.faces) == pytest.approx(
+        np.pi * r**2 * length + 4 / 3 * np.pi * r**3, rel=0.04
+    )  # inscribed 16-gon: -2.6 %
     assert m.area == pytest.approx(2 * np.pi * r * length + 4 * np.pi * r**2, rel=0.02)
     e = opnet.mesh.unique_edges(m.faces)
     assert len(m.vertices) - len(e) + len(m.faces) == 2  # a sphere's Euler characteristic

@@ -1,4 +1,5 @@
 """Training: fit, checkpoints, exact resume (also after SIGKILL), mismatch errors, NaN stop, CLI, DDP."""
+
 import json
 import os
 import signal
@@ -116,7 +117,10 @@ def test_a_run_killed_with_sigkill_resumes_to_the_uninterrupted_result(coll, tmp
 
 def test_mismatched_runs_and_checkpoints_are_refused(coll, tmp_path):
     train.fit(coll, epochs=1, run_dir=tmp_path, **FAST)
-    with pytest.raises(train.CheckpointError, match=r"other model settings: channels=\['area', 'conformal', 'extrinsic'\] there but \['extrinsic'\] here"):
+    with pytest.raises(
+        train.CheckpointError,
+        match=r"other model settings: channels=\['area', 'conformal', 'extrinsic'\] there but \['extrinsic'\] here",
+    ):
         train.fit(coll, channels="Ext", epochs=2, run_dir=tmp_path, **FAST)
     other = tiny_collection("other", seed=1)
     with pytest.raises(train.CheckpointError, match=r"tiny/tiny/430 seed 0 .*other/tiny/430 seed 1"):
@@ -171,7 +175,10 @@ def test_nan_loss_stops_with_the_epoch_and_last_good_checkpoint(coll, tmp_path, 
         return out * np.nan if calls["n"] > 2 * steps_per_epoch else out
 
     monkeypatch.setattr(train, "rigid_alignment_loss", flaky)
-    with pytest.raises(train.TrainingError, match=r"training loss became NaN or infinite in epoch 3; the last good checkpoint is .*latest.pt \(epoch 2\)"):
+    with pytest.raises(
+        train.TrainingError,
+        match=r"training loss became NaN or infinite in epoch 3; the last good checkpoint is .*latest.pt \(epoch 2\)",
+    ):
         train.fit(coll, epochs=5, run_dir=tmp_path, **FAST)
     assert train.read_history(tmp_path)[-1]["epoch"] == 2
 
@@ -303,8 +310,21 @@ def test_cli_help_explains_every_flag():
 def test_cli_train_and_evaluate_on_a_saved_collection(coll, tmp_path):
     manifest = save_collection(coll, tmp_path / "data" / "tiny")
     run = tmp_path / "run"
-    out = _cli("train", "--collection", str(manifest), "--channels", "A+E", "--epochs", "2", "--hidden", "32",
-               "--batch-size", "8", "--run-dir", str(run))
+    out = _cli(
+        "train",
+        "--collection",
+        str(manifest),
+        "--channels",
+        "A+E",
+        "--epochs",
+        "2",
+        "--hidden",
+        "32",
+        "--batch-size",
+        "8",
+        "--run-dir",
+        str(run),
+    )
     assert out.returncode == 0, out.stderr
     assert "best epoch" in out.stdout and train.load_model(run).channels == ("area", "extrinsic")
     out = _cli("evaluate", "--run-dir", str(run), "--collection", str(manifest), "--json", str(tmp_path / "e.json"))
@@ -326,9 +346,26 @@ def test_ddp_with_two_processes_matches_one_process(coll, tmp_path):
     single = _cli("train", *common, "--run-dir", str(tmp_path / "one"))
     assert single.returncode == 0, single.stderr
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    ddp = subprocess.run([sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_port",
-                          str(29500 + os.getpid() % 1000), "-m", "opnet", "train", *common, "--run-dir",
-                          str(tmp_path / "two")], capture_output=True, text=True, env=env)
+    ddp = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "torch.distributed.run",
+            "--nproc_per_node",
+            "2",
+            "--master_port",
+            str(29500 + os.getpid() % 1000),
+            "-m",
+            "opnet",
+            "train",
+            *common,
+            "--run-dir",
+            str(tmp_path / "two"),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
     assert ddp.returncode == 0, ddp.stderr[-3000:]
     one = torch.load(tmp_path / "one" / "latest.pt", weights_only=True)
     two = torch.load(tmp_path / "two" / "latest.pt", weights_only=True)

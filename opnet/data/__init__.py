@@ -12,6 +12,7 @@ and smooth toy shapes for tutorials and tests.
     ds.base_basis     # the stored base eigenbasis (.evals, .evecs, .mass)
     comp = opnet.data.mapped_collection(ds, "2k")   # the same shapes, operators through computed maps
 """
+
 from . import toy
 from .collections import (
     SPLITS,
@@ -26,9 +27,22 @@ from .collections import (
 from .mapped import mapped_collection
 from .splits import furthest_point_subset, hausdorff, make_splits
 
-__all__ = ["toy", "SPLITS", "Collection", "CollectionError", "load_collection", "load_folder", "read_collection",
-           "save_collection", "mapped_collection", "default_root", "make_splits", "hausdorff", "furthest_point_subset",
-           "OperatorDataset"]
+__all__ = [
+    "toy",
+    "SPLITS",
+    "Collection",
+    "CollectionError",
+    "load_collection",
+    "load_folder",
+    "read_collection",
+    "save_collection",
+    "mapped_collection",
+    "default_root",
+    "make_splits",
+    "hausdorff",
+    "furthest_point_subset",
+    "OperatorDataset",
+]
 
 
 def __getattr__(name):

@@ -23,6 +23,7 @@ models, about 1.5 minutes for the hand), and the models are kept in memory.
 
 .. _anny: https://pypi.org/project/anny/
 """
+
 from __future__ import annotations
 
 import functools
@@ -31,13 +32,36 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 __all__ = [
-    "RESOLUTIONS", "PHENOTYPES", "AVERAGE_SUBJECT", "ACTIONS", "JOINT_LIMITS",
-    "human_model", "human_faces", "human_vertices", "rest_pose", "joint_poses",
-    "action_angles", "action_poses", "random_angles", "random_poses", "random_subjects",
-    "FACIAL_ACTIONS", "HEAD_EXPRESSIONS", "head_model", "head_faces", "head_vertices",
-    "expression_sequence", "random_expressions",
-    "HAND_JOINT_LIMITS", "HAND_GESTURES", "hand_model", "hand_faces", "hand_vertices", "hand_poses",
-    "gesture_sequence", "random_hand_poses",
+    "RESOLUTIONS",
+    "PHENOTYPES",
+    "AVERAGE_SUBJECT",
+    "ACTIONS",
+    "JOINT_LIMITS",
+    "human_model",
+    "human_faces",
+    "human_vertices",
+    "rest_pose",
+    "joint_poses",
+    "action_angles",
+    "action_poses",
+    "random_angles",
+    "random_poses",
+    "random_subjects",
+    "FACIAL_ACTIONS",
+    "HEAD_EXPRESSIONS",
+    "head_model",
+    "head_faces",
+    "head_vertices",
+    "expression_sequence",
+    "random_expressions",
+    "HAND_JOINT_LIMITS",
+    "HAND_GESTURES",
+    "hand_model",
+    "hand_faces",
+    "hand_vertices",
+    "hand_poses",
+    "gesture_sequence",
+    "random_hand_poses",
 ]
 
 # -- models ------------------------------------------------------------------------------------
@@ -124,7 +148,7 @@ def human_model(resolution: str = "1k"):
     if topology.startswith(_QUADRIC_PREFIX):
         build = cache_builder(_decimated_notoes_model_data)
         model = anny.Anny.from_model_data(
-            build(int(topology[len(_QUADRIC_PREFIX):])),
+            build(int(topology[len(_QUADRIC_PREFIX) :])),
             skinning_method="lbs",
             pose_parameterization="local-ref",
             bone_orientation="cached",
@@ -191,8 +215,14 @@ def human_vertices(subjects, poses, resolution: str = "1k", batch_size: int = 25
     model = human_model(resolution)
     subjects = _check_subjects(subjects)
     poses = _check_poses(poses, model, len(subjects))
-    return _run_model(model, subjects, len(model.template_vertices), batch_size, lambda result: result["vertices"],
-                      pose_parameters=poses)
+    return _run_model(
+        model,
+        subjects,
+        len(model.template_vertices),
+        batch_size,
+        lambda result: result["vertices"],
+        pose_parameters=poses,
+    )
 
 
 # -- joints and poses --------------------------------------------------------------------------
@@ -260,7 +290,8 @@ def rest_pose() -> np.ndarray:
 
 def _poses_from_angles(joints: dict, bone_labels, angles: dict, n: int | None) -> np.ndarray:
     """Pose parameters ``(n, len(bone_labels), 4, 4)`` from angles in degrees of the joints of a table
-    ``{name: (bones, axis, (min, max))}`` (see :func:`joint_poses`)."""
+    ``{name: (bones, axis, (min, max))}`` (see :func:`joint_poses`).
+    """
     unknown = set(angles) - set(joints)
     if unknown:
         raise ValueError(f"unknown joint angles {sorted(unknown)}; known: {sorted(joints)}.")
@@ -295,6 +326,7 @@ def joint_poses(angles: dict, n: int | None = None) -> np.ndarray:
 
 # -- actions -----------------------------------------------------------------------------------
 
+
 def _bump(t):
     """0 -> 1 -> 0 over one cycle, smoothly: ``(1 - cos 2πt) / 2``."""
     return 0.5 * (1 - np.cos(2 * np.pi * t))
@@ -313,23 +345,29 @@ def _both(name, left, right=None):
 def _walk(t):
     w = 2 * np.pi * t
     swing_l, swing_r = (0.5 * (1 + np.cos(w))) ** 3, (0.5 * (1 - np.cos(w))) ** 3
-    return {**_both("hip_flex", 25 * np.sin(w), -25 * np.sin(w)),
-            **_both("knee_flex", 5 + 55 * swing_l, 5 + 55 * swing_r),
-            **_both("ankle_flex", -10 * swing_l, -10 * swing_r),
-            **_both("shoulder_flex", -20 * np.sin(w), 20 * np.sin(w)),
-            **_both("shoulder_abduct", -15), **_both("elbow_flex", 15),
-            "spine_twist": -6 * np.sin(w)}
+    return {
+        **_both("hip_flex", 25 * np.sin(w), -25 * np.sin(w)),
+        **_both("knee_flex", 5 + 55 * swing_l, 5 + 55 * swing_r),
+        **_both("ankle_flex", -10 * swing_l, -10 * swing_r),
+        **_both("shoulder_flex", -20 * np.sin(w), 20 * np.sin(w)),
+        **_both("shoulder_abduct", -15),
+        **_both("elbow_flex", 15),
+        "spine_twist": -6 * np.sin(w),
+    }
 
 
 def _run_in_place(t):
     w = 2 * np.pi * t
     lift_l, lift_r = (0.5 * (1 + np.sin(w))) ** 3, (0.5 * (1 - np.sin(w))) ** 3
-    return {**_both("hip_flex", 75 * lift_l, 75 * lift_r),
-            **_both("knee_flex", 10 + 100 * lift_l, 10 + 100 * lift_r),
-            **_both("ankle_flex", 20 * lift_l, 20 * lift_r),
-            **_both("shoulder_flex", 35 * (lift_r - lift_l), 35 * (lift_l - lift_r)),
-            **_both("shoulder_abduct", -10), **_both("elbow_flex", 55),
-            "spine_flex": 5}
+    return {
+        **_both("hip_flex", 75 * lift_l, 75 * lift_r),
+        **_both("knee_flex", 10 + 100 * lift_l, 10 + 100 * lift_r),
+        **_both("ankle_flex", 20 * lift_l, 20 * lift_r),
+        **_both("shoulder_flex", 35 * (lift_r - lift_l), 35 * (lift_l - lift_r)),
+        **_both("shoulder_abduct", -10),
+        **_both("elbow_flex", 55),
+        "spine_flex": 5,
+    }
 
 
 def _arm_raise(t):
@@ -339,37 +377,53 @@ def _arm_raise(t):
 
 def _knee_bend(t):
     b = _bump(t)
-    return {**_both("hip_flex", 90 * b), **_both("knee_flex", 115 * b), **_both("ankle_flex", -20 * b),
-            **_both("hip_abduct", 8 * b), **_both("shoulder_flex", 75 * b), **_both("elbow_flex", -25 * b),
-            "spine_flex": 15 * b}
+    return {
+        **_both("hip_flex", 90 * b),
+        **_both("knee_flex", 115 * b),
+        **_both("ankle_flex", -20 * b),
+        **_both("hip_abduct", 8 * b),
+        **_both("shoulder_flex", 75 * b),
+        **_both("elbow_flex", -25 * b),
+        "spine_flex": 15 * b,
+    }
 
 
 def _jumping_jacks(t):
     b = _bump(t)
-    return {**_both("shoulder_abduct", 120 * b), **_both("clavicle_elevate", 15 * b),
-            **_both("elbow_flex", -20 * b), **_both("hip_abduct", 25 * b)}
+    return {
+        **_both("shoulder_abduct", 120 * b),
+        **_both("clavicle_elevate", 15 * b),
+        **_both("elbow_flex", -20 * b),
+        **_both("hip_abduct", 25 * b),
+    }
 
 
 def _punch(t):
     guard = _bump(t)
     right, left = _pulse(t, 0.35, 0.1), _pulse(t, 0.65, 0.1)
-    return {**_both("shoulder_flex", guard * (45 + 40 * left), guard * (45 + 40 * right)),
-            **_both("shoulder_abduct", -25 * guard),
-            **_both("elbow_flex", guard * (85 - 120 * left), guard * (85 - 120 * right)),
-            **_both("clavicle_protract", 15 * guard * left, 15 * guard * right),
-            "spine_twist": 20 * guard * (right - left)}
+    return {
+        **_both("shoulder_flex", guard * (45 + 40 * left), guard * (45 + 40 * right)),
+        **_both("shoulder_abduct", -25 * guard),
+        **_both("elbow_flex", guard * (85 - 120 * left), guard * (85 - 120 * right)),
+        **_both("clavicle_protract", 15 * guard * left, 15 * guard * right),
+        "spine_twist": 20 * guard * (right - left),
+    }
 
 
 def _torso_twist(t):
     s = np.sin(2 * np.pi * t)
-    return {"spine_twist": 40 * s, "neck_twist": 15 * s,
-            **_both("shoulder_abduct", 25), **_both("elbow_flex", 40)}
+    return {"spine_twist": 40 * s, "neck_twist": 15 * s, **_both("shoulder_abduct", 25), **_both("elbow_flex", 40)}
 
 
 def _one_leg_balance(t):
     b = _bump(t)
-    return {"hip_flex.L": 85 * b, "knee_flex.L": 95 * b, "ankle_flex.L": 20 * b,
-            **_both("shoulder_abduct", 50 * b), "spine_side": -5 * b}
+    return {
+        "hip_flex.L": 85 * b,
+        "knee_flex.L": 95 * b,
+        "ankle_flex.L": 20 * b,
+        **_both("shoulder_abduct", 50 * b),
+        "spine_side": -5 * b,
+    }
 
 
 def _shoulder_roll(t):
@@ -381,40 +435,69 @@ def _hip_circle(t):
     w = 2 * np.pi * t
     flex, side = 20 * np.sin(w), 20 * np.cos(w)
     # the pelvis tilts around a circle while the chest and the legs stay upright
-    return {"pelvis_flex": flex, "pelvis_side": side, "spine_flex": -flex, "spine_side": -side,
-            **_both("hip_flex", flex), **_both("hip_abduct", side, -side)}
+    return {
+        "pelvis_flex": flex,
+        "pelvis_side": side,
+        "spine_flex": -flex,
+        "spine_side": -side,
+        **_both("hip_flex", flex),
+        **_both("hip_abduct", side, -side),
+    }
 
 
 def _wave(t):
     g = _bump(t)
-    return {"shoulder_abduct.R": 95 * g, "elbow_flex.R": 70 * g,
-            "shoulder_rotate.R": 25 * g * np.sin(6 * np.pi * t)}
+    return {"shoulder_abduct.R": 95 * g, "elbow_flex.R": 70 * g, "shoulder_rotate.R": 25 * g * np.sin(6 * np.pi * t)}
 
 
 def _forward_bend(t):
     b = _bump(t)
-    return {"spine_flex": 60 * b, "pelvis_flex": 25 * b, **_both("hip_flex", 25 * b),
-            "neck_flex": -10 * b, **_both("shoulder_flex", 70 * b)}
+    return {
+        "spine_flex": 60 * b,
+        "pelvis_flex": 25 * b,
+        **_both("hip_flex", 25 * b),
+        "neck_flex": -10 * b,
+        **_both("shoulder_flex", 70 * b),
+    }
 
 
 def _side_bend(t):
     s = np.sin(2 * np.pi * t)
-    return {"spine_side": 30 * s, "neck_side": 10 * s,
-            **_both("shoulder_abduct", 100 * (0.5 * (1 - s)) ** 3, 100 * (0.5 * (1 + s)) ** 3)}
+    return {
+        "spine_side": 30 * s,
+        "neck_side": 10 * s,
+        **_both("shoulder_abduct", 100 * (0.5 * (1 - s)) ** 3, 100 * (0.5 * (1 + s)) ** 3),
+    }
 
 
 def _kick(t):
     g = _bump(t)
     extend = _pulse(t, 0.5, 0.12)
-    return {"hip_flex.R": 80 * g, "knee_flex.R": g * (110 - 100 * extend), "ankle_flex.R": 30 * g,
-            **_both("shoulder_abduct", -10 * g), **_both("elbow_flex", 60 * g), "spine_flex": -10 * g}
+    return {
+        "hip_flex.R": 80 * g,
+        "knee_flex.R": g * (110 - 100 * extend),
+        "ankle_flex.R": 30 * g,
+        **_both("shoulder_abduct", -10 * g),
+        **_both("elbow_flex", 60 * g),
+        "spine_flex": -10 * g,
+    }
 
 
 _ACTIONS = {
-    "walk": _walk, "run_in_place": _run_in_place, "arm_raise": _arm_raise, "knee_bend": _knee_bend,
-    "jumping_jacks": _jumping_jacks, "punch": _punch, "torso_twist": _torso_twist,
-    "one_leg_balance": _one_leg_balance, "shoulder_roll": _shoulder_roll, "hip_circle": _hip_circle,
-    "wave": _wave, "forward_bend": _forward_bend, "side_bend": _side_bend, "kick": _kick,
+    "walk": _walk,
+    "run_in_place": _run_in_place,
+    "arm_raise": _arm_raise,
+    "knee_bend": _knee_bend,
+    "jumping_jacks": _jumping_jacks,
+    "punch": _punch,
+    "torso_twist": _torso_twist,
+    "one_leg_balance": _one_leg_balance,
+    "shoulder_roll": _shoulder_roll,
+    "hip_circle": _hip_circle,
+    "wave": _wave,
+    "forward_bend": _forward_bend,
+    "side_bend": _side_bend,
+    "kick": _kick,
 }
 
 #: Named motions for :func:`action_poses`; each is one smooth cycle of joint angles.
@@ -423,7 +506,8 @@ ACTIONS = tuple(_ACTIONS)
 
 def _phases(n_frames: int, offset: float) -> np.ndarray:
     """Phases ``(k + offset) / n_frames`` of one cycle. An offset in (0, ½) avoids sampling a
-    time-symmetric motion twice at the same pose (phases ``t`` and ``1 − t``)."""
+    time-symmetric motion twice at the same pose (phases ``t`` and ``1 − t``).
+    """
     return (np.arange(n_frames) + offset) / n_frames
 
 
@@ -432,8 +516,10 @@ def action_angles(action: str, n_frames: int, *, amplitude: float = 1.0, offset:
     if action not in _ACTIONS:
         raise ValueError(f"unknown action {action!r}; known: {ACTIONS}.")
     t = _phases(n_frames, offset)
-    return {name: amplitude * np.broadcast_to(np.asarray(angle, dtype=np.float64), t.shape).copy()
-            for name, angle in _ACTIONS[action](t).items()}
+    return {
+        name: amplitude * np.broadcast_to(np.asarray(angle, dtype=np.float64), t.shape).copy()
+        for name, angle in _ACTIONS[action](t).items()
+    }
 
 
 def action_poses(action: str, n_frames: int, *, amplitude: float = 1.0, offset: float = 0.0) -> np.ndarray:
@@ -454,13 +540,29 @@ def action_poses(action: str, n_frames: int, *, amplitude: float = 1.0, offset: 
 # Sampling ranges (degrees) of random poses: moderate parts of the anatomical ranges, so that
 # limbs stay clear of the body. The pelvis is not turned (random poses keep the root still).
 _RANDOM_RANGES = {
-    "spine_flex": (-15, 30), "spine_side": (-15, 15), "spine_twist": (-30, 30),
-    "neck_flex": (-25, 35), "neck_side": (-20, 20), "neck_twist": (-45, 45),
-    **{f"{name}.{side}": limits for side in "LR" for name, limits in {
-        "clavicle_elevate": (-5, 20), "clavicle_protract": (-10, 15),
-        "shoulder_flex": (-30, 70), "shoulder_abduct": (-10, 70), "shoulder_rotate": (-40, 40),
-        "elbow_flex": (-35, 70), "hip_flex": (-15, 60), "hip_abduct": (-5, 30), "hip_rotate": (-20, 30),
-        "knee_flex": (0, 100), "ankle_flex": (-15, 30)}.items()},
+    "spine_flex": (-15, 30),
+    "spine_side": (-15, 15),
+    "spine_twist": (-30, 30),
+    "neck_flex": (-25, 35),
+    "neck_side": (-20, 20),
+    "neck_twist": (-45, 45),
+    **{
+        f"{name}.{side}": limits
+        for side in "LR"
+        for name, limits in {
+            "clavicle_elevate": (-5, 20),
+            "clavicle_protract": (-10, 15),
+            "shoulder_flex": (-30, 70),
+            "shoulder_abduct": (-10, 70),
+            "shoulder_rotate": (-40, 40),
+            "elbow_flex": (-35, 70),
+            "hip_flex": (-15, 60),
+            "hip_abduct": (-5, 30),
+            "hip_rotate": (-20, 30),
+            "knee_flex": (0, 100),
+            "ankle_flex": (-15, 30),
+        }.items()
+    },
 }
 
 
@@ -491,14 +593,17 @@ def random_subjects(n: int, rng: np.random.Generator) -> np.ndarray:
     calibration to WHO statistics); proportions uniform.
     """
     years = rng.uniform(20.0, 70.0, n)
-    return np.stack([
-        rng.uniform(0.0, 1.0, n),
-        np.interp(years, _AGE_YEARS, _AGE_ANNY),
-        rng.beta(2.0, 2.0, n),
-        rng.beta(2.0, 2.0, n),
-        rng.beta(15.0, 25.0, n),
-        rng.uniform(0.0, 1.0, n),
-    ], axis=1)
+    return np.stack(
+        [
+            rng.uniform(0.0, 1.0, n),
+            np.interp(years, _AGE_YEARS, _AGE_ANNY),
+            rng.beta(2.0, 2.0, n),
+            rng.beta(2.0, 2.0, n),
+            rng.beta(15.0, 25.0, n),
+            rng.uniform(0.0, 1.0, n),
+        ],
+        axis=1,
+    )
 
 
 # -- heads -------------------------------------------------------------------------------------
@@ -506,15 +611,58 @@ def random_subjects(n: int, rng: np.random.Generator) -> np.ndarray:
 #: Anny's 52 facial actions (ARKit blendshape names, as in ``anny.models.facial_actions``), the
 #: columns of expression weights.
 FACIAL_ACTIONS = (
-    "browDownLeft", "browDownRight", "browInnerUp", "browOuterUpLeft", "browOuterUpRight", "cheekPuff",
-    "cheekSquintLeft", "cheekSquintRight", "eyeBlinkLeft", "eyeBlinkRight", "eyeLookDownLeft", "eyeLookDownRight",
-    "eyeLookInLeft", "eyeLookInRight", "eyeLookOutLeft", "eyeLookOutRight", "eyeLookUpLeft", "eyeLookUpRight",
-    "eyeSquintLeft", "eyeSquintRight", "eyeWideLeft", "eyeWideRight", "jawForward", "jawLeft", "jawOpen", "jawRight",
-    "mouthClose", "mouthDimpleLeft", "mouthDimpleRight", "mouthFrownLeft", "mouthFrownRight", "mouthFunnel",
-    "mouthLeft", "mouthLowerDownLeft", "mouthLowerDownRight", "mouthPressLeft", "mouthPressRight", "mouthPucker",
-    "mouthRight", "mouthRollLower", "mouthRollUpper", "mouthShrugLower", "mouthShrugUpper", "mouthSmileLeft",
-    "mouthSmileRight", "mouthStretchLeft", "mouthStretchRight", "mouthUpperUpLeft", "mouthUpperUpRight",
-    "noseSneerLeft", "noseSneerRight", "tongueOut",
+    "browDownLeft",
+    "browDownRight",
+    "browInnerUp",
+    "browOuterUpLeft",
+    "browOuterUpRight",
+    "cheekPuff",
+    "cheekSquintLeft",
+    "cheekSquintRight",
+    "eyeBlinkLeft",
+    "eyeBlinkRight",
+    "eyeLookDownLeft",
+    "eyeLookDownRight",
+    "eyeLookInLeft",
+    "eyeLookInRight",
+    "eyeLookOutLeft",
+    "eyeLookOutRight",
+    "eyeLookUpLeft",
+    "eyeLookUpRight",
+    "eyeSquintLeft",
+    "eyeSquintRight",
+    "eyeWideLeft",
+    "eyeWideRight",
+    "jawForward",
+    "jawLeft",
+    "jawOpen",
+    "jawRight",
+    "mouthClose",
+    "mouthDimpleLeft",
+    "mouthDimpleRight",
+    "mouthFrownLeft",
+    "mouthFrownRight",
+    "mouthFunnel",
+    "mouthLeft",
+    "mouthLowerDownLeft",
+    "mouthLowerDownRight",
+    "mouthPressLeft",
+    "mouthPressRight",
+    "mouthPucker",
+    "mouthRight",
+    "mouthRollLower",
+    "mouthRollUpper",
+    "mouthShrugLower",
+    "mouthShrugUpper",
+    "mouthSmileLeft",
+    "mouthSmileRight",
+    "mouthStretchLeft",
+    "mouthStretchRight",
+    "mouthUpperUpLeft",
+    "mouthUpperUpRight",
+    "noseSneerLeft",
+    "noseSneerRight",
+    "tongueOut",
 )
 
 
@@ -569,7 +717,8 @@ def _head_component():
 
 def head_faces() -> np.ndarray:
     """Triangles ``(8356, 3)`` int64 of the head skin: one component, open at the neck, with the mouth
-    and eye cavities (the eyeballs and the tongue, separate components, are left out)."""
+    and eye cavities (the eyeballs and the tongue, separate components, are left out).
+    """
     return _head_component()[1].astype(np.int64)
 
 
@@ -584,13 +733,15 @@ def _expression_vector(name: str) -> np.ndarray:
 
 def expression_sequence(name: str, n_frames: int, *, amplitude: float = 1.0, offset: float = 0.0) -> np.ndarray:
     """Facial action weights ``(n_frames, n_actions)`` ramping smoothly 0 -> ``amplitude`` -> 0, at phases
-    ``(k + offset) / n_frames``."""
+    ``(k + offset) / n_frames``.
+    """
     return amplitude * _bump(_phases(n_frames, offset))[:, None] * _expression_vector(name)[None, :]
 
 
 def random_expressions(n: int, rng: np.random.Generator) -> np.ndarray:
     """Random facial action weights ``(n, n_actions)`` in [0, 1]: two named expressions of random
-    intensities (uniform in [0, 1]) mixed, and the sum clipped to 1."""
+    intensities (uniform in [0, 1]) mixed, and the sum clipped to 1.
+    """
     table = np.stack([_expression_vector(name) for name in HEAD_EXPRESSIONS])
     picks = rng.integers(0, len(table), (n, 2))
     intensity = rng.uniform(0.0, 1.0, (n, 2, 1))
@@ -612,16 +763,23 @@ def head_vertices(subjects, expression_weights, batch_size: int = 256) -> np.nda
     subjects = _check_subjects(subjects)
     weights = np.asarray(expression_weights, dtype=np.float64)
     if weights.shape != (len(subjects), len(FACIAL_ACTIONS)):
-        raise ValueError(f"expression_weights must have shape ({len(subjects)}, {len(FACIAL_ACTIONS)}), "
-                         f"got {weights.shape}.")
+        raise ValueError(
+            f"expression_weights must have shape ({len(subjects)}, {len(FACIAL_ACTIONS)}), got {weights.shape}."
+        )
     kept = _head_component()[0]
     # the head is not posed: the facial actions are blendshapes of the rest mesh
-    return _run_model(model, subjects, len(kept), batch_size,
-                      lambda result: result["rest_vertices"][:, kept] - result["rest_bone_heads"][:, :1],
-                      facial_actions=weights)
+    return _run_model(
+        model,
+        subjects,
+        len(kept),
+        batch_size,
+        lambda result: result["rest_vertices"][:, kept] - result["rest_bone_heads"][:, :1],
+        facial_actions=weights,
+    )
 
 
 # -- hands -------------------------------------------------------------------------------------
+
 
 @functools.lru_cache(maxsize=None)
 def hand_model():
@@ -650,12 +808,16 @@ _HAND_JOINTS = {
     "thumb_cmc_abduct": (("finger1-1.R",), (0, 0, -1), (-20, 40)),  # + lifts it away from the palm
     "thumb_mcp": (("finger1-2.R",), (1, 0, 0), (-10, 60)),  # + bends
     "thumb_ip": (("finger1-3.R",), (1, 0, 0), (-10, 80)),  # + bends
-    **{name: joint for finger, bone in _FINGERS.items() for name, joint in {
-        f"{finger}_mcp": ((f"{bone}-1.R",), (1, 0, 0), (-15, 90)),  # + bends towards the palm
-        f"{finger}_spread": ((f"{bone}-1.R",), (0, 0, 1), (-25, 25)),  # + turns towards the little finger
-        f"{finger}_pip": ((f"{bone}-2.R",), (1, 0, 0), (0, 105)),
-        f"{finger}_dip": ((f"{bone}-3.R",), (1, 0, 0), (0, 80)),
-    }.items()},
+    **{
+        name: joint
+        for finger, bone in _FINGERS.items()
+        for name, joint in {
+            f"{finger}_mcp": ((f"{bone}-1.R",), (1, 0, 0), (-15, 90)),  # + bends towards the palm
+            f"{finger}_spread": ((f"{bone}-1.R",), (0, 0, 1), (-25, 25)),  # + turns towards the little finger
+            f"{finger}_pip": ((f"{bone}-2.R",), (1, 0, 0), (0, 105)),
+            f"{finger}_dip": ((f"{bone}-3.R",), (1, 0, 0), (0, 80)),
+        }.items()
+    },
 }
 
 #: Anatomical limits ``(min, max)`` in degrees of the hand joint angles.
@@ -668,8 +830,12 @@ _CURL_SPREAD = {"index": -4.0, "middle": 0.0, "ring": 4.0, "pinky": 8.0}
 
 def _curl(finger: str, amount):
     """Angles bending a finger by ``amount`` (0: straight, 1: into a fist, fingertips on the palm)."""
-    return {f"{finger}_mcp": 75 * amount, f"{finger}_pip": 90 * amount, f"{finger}_dip": 55 * amount,
-            f"{finger}_spread": _CURL_SPREAD[finger] * amount}
+    return {
+        f"{finger}_mcp": 75 * amount,
+        f"{finger}_pip": 90 * amount,
+        f"{finger}_dip": 55 * amount,
+        f"{finger}_spread": _CURL_SPREAD[finger] * amount,
+    }
 
 
 def _fist_except(*straight: str) -> dict:
@@ -685,16 +851,38 @@ HAND_GESTURES = {
     "open": {**_SPREAD, **_THUMB_OUT},
     "fist": {**_fist_except(), **_THUMB_ACROSS},
     "point": {**_fist_except("index"), **_THUMB_ACROSS},
-    "pinch": {"index_mcp": 45, "index_pip": 45, "index_dip": 20,
-              "thumb_cmc_flex": 35, "thumb_cmc_abduct": 10, "thumb_mcp": 20, "thumb_ip": 15,
-              **_curl("middle", 0.3), **_curl("ring", 0.35), **_curl("pinky", 0.4)},
+    "pinch": {
+        "index_mcp": 45,
+        "index_pip": 45,
+        "index_dip": 20,
+        "thumb_cmc_flex": 35,
+        "thumb_cmc_abduct": 10,
+        "thumb_mcp": 20,
+        "thumb_ip": 15,
+        **_curl("middle", 0.3),
+        **_curl("ring", 0.35),
+        **_curl("pinky", 0.4),
+    },
     "thumbs_up": {**_fist_except(), **_THUMB_OUT},
     "peace": {**_fist_except("index", "middle"), **_THUMB_ACROSS, "index_spread": -10, "middle_spread": 8},
-    "ok": {"index_mcp": 50, "index_pip": 60, "index_dip": 35,
-           "thumb_cmc_flex": 25, "thumb_cmc_abduct": 5, "thumb_mcp": 10, "thumb_ip": 15,
-           "ring_spread": 8, "pinky_spread": 16},
-    "claw": {**{f"{f}_{j}": a for f in _FINGERS for j, a in (("mcp", 15), ("pip", 80), ("dip", 60))},
-             **_SPREAD, "thumb_cmc_flex": 10, "thumb_mcp": 30, "thumb_ip": 45},
+    "ok": {
+        "index_mcp": 50,
+        "index_pip": 60,
+        "index_dip": 35,
+        "thumb_cmc_flex": 25,
+        "thumb_cmc_abduct": 5,
+        "thumb_mcp": 10,
+        "thumb_ip": 15,
+        "ring_spread": 8,
+        "pinky_spread": 16,
+    },
+    "claw": {
+        **{f"{f}_{j}": a for f in _FINGERS for j, a in (("mcp", 15), ("pip", 80), ("dip", 60))},
+        **_SPREAD,
+        "thumb_cmc_flex": 10,
+        "thumb_mcp": 30,
+        "thumb_ip": 45,
+    },
     "rock": {**_fist_except("index", "pinky"), **_THUMB_ACROSS, "pinky_spread": 10},
     "call_me": {**_fist_except("pinky"), **_THUMB_OUT, "pinky_spread": 16},
 }
@@ -707,7 +895,8 @@ def hand_poses(angles: dict, n: int | None = None) -> np.ndarray:
 
 def gesture_sequence(name: str, n_frames: int, *, amplitude: float = 1.0, offset: float = 0.0) -> np.ndarray:
     """Hand poses ``(n_frames, 21, 4, 4)`` closing smoothly from rest into a gesture (its joint angles
-    scaled by ``amplitude``) and back, at phases ``(k + offset) / n_frames``."""
+    scaled by ``amplitude``) and back, at phases ``(k + offset) / n_frames``.
+    """
     if name not in HAND_GESTURES:
         raise ValueError(f"unknown gesture {name!r}; known: {tuple(HAND_GESTURES)}.")
     ramp = amplitude * _bump(_phases(n_frames, offset))
@@ -716,7 +905,8 @@ def gesture_sequence(name: str, n_frames: int, *, amplitude: float = 1.0, offset
 
 def random_hand_poses(n: int, rng: np.random.Generator) -> np.ndarray:
     """Random hand poses ``(n, 21, 4, 4)``: a hand-wide curl in [0, 1] varied per finger, the
-    distal joints following the middle ones, a random spread and a random thumb."""
+    distal joints following the middle ones, a random spread and a random thumb.
+    """
     curl = np.clip(rng.uniform(0.0, 1.0, (n, 1)) + rng.normal(0.0, 0.15, (n, len(_FINGERS))), 0.0, 1.0)
     angles = {}
     for i, finger in enumerate(_FINGERS):

@@ -22,6 +22,7 @@ then are older data files removed. A reader therefore sees either the previous c
 collection or the new one, never a half-written file, and an interrupted first build
 leaves nothing that loads (:class:`CollectionError` says what to do).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -42,8 +43,17 @@ from ..mesh import Mesh, MeshError
 from ..shape_difference import KINDS, shape_differences
 from ..spectral import Eigenbasis, eigenbasis
 
-__all__ = ["Collection", "CollectionError", "load_collection", "load_folder", "save_collection", "read_collection",
-           "default_root", "FORMAT_VERSION", "SPLITS"]
+__all__ = [
+    "Collection",
+    "CollectionError",
+    "load_collection",
+    "load_folder",
+    "save_collection",
+    "read_collection",
+    "default_root",
+    "FORMAT_VERSION",
+    "SPLITS",
+]
 
 FORMAT_VERSION = 2
 SPLITS = ("train", "val", "test", "test_subjects")
@@ -82,12 +92,14 @@ class Collection:
 
     def subset(self, indices) -> Collection:
         """Shapes ``indices`` (distinct, in that order) as a collection of their own: vertices, operators, splits,
-        sub-collections and parameters are taken; the evaluation subset keeps those of its shapes that are."""
+        sub-collections and parameters are taken; the evaluation subset keeps those of its shapes that are.
+        """
         idx = np.asarray(indices)
         if idx.ndim != 1 or (idx.size and idx.dtype.kind not in "iu"):
             hint = " (for a boolean mask, pass np.flatnonzero(mask))" if idx.dtype == bool else ""
-            raise ValueError(f"indices must be a 1-D array of shape indices{hint}, got {idx.dtype} array of shape "
-                             f"{idx.shape}.")
+            raise ValueError(
+                f"indices must be a 1-D array of shape indices{hint}, got {idx.dtype} array of shape {idx.shape}."
+            )
         idx = idx.astype(np.int64)
         if idx.size and (idx.min() < 0 or idx.max() >= len(self)):
             raise ValueError(f"indices must lie in [0, {len(self) - 1}], got [{idx.min()}, {idx.max()}].")
@@ -95,13 +107,24 @@ class Collection:
             raise ValueError("indices has repeated shapes; give each shape once (np.unique(indices)).")
         position = {int(i): j for j, i in enumerate(idx)}
         eval_subset = np.sort([position[i] for i in self.eval_subset.tolist() if i in position]).astype(np.int64)
-        return Collection(self.vertices[idx], self.faces, self.operators[idx], self.split[idx], self.subcollection[idx],
-                          self.base_basis, eval_subset, {k: v[idx] for k, v in self.params.items()}, dict(self.meta))
+        return Collection(
+            self.vertices[idx],
+            self.faces,
+            self.operators[idx],
+            self.split[idx],
+            self.subcollection[idx],
+            self.base_basis,
+            eval_subset,
+            {k: v[idx] for k, v in self.params.items()},
+            dict(self.meta),
+        )
 
     def __repr__(self) -> str:
         counts = {s: int(np.sum(self.split == s)) for s in SPLITS}
-        return (f"Collection({self.meta.get('name', '?')!r}, preset={self.meta.get('preset')!r}, shapes={len(self)}, "
-                f"vertices={self.vertices.shape[1]}, k={self.base_basis.k}, splits={counts})")
+        return (
+            f"Collection({self.meta.get('name', '?')!r}, preset={self.meta.get('preset')!r}, shapes={len(self)}, "
+            f"vertices={self.vertices.shape[1]}, k={self.base_basis.k}, splits={counts})"
+        )
 
 
 def default_root() -> Path:
@@ -141,11 +164,17 @@ def save_collection(coll: Collection, path) -> Path:
     stem = _stem(path)
     stem.parent.mkdir(parents=True, exist_ok=True)
     arrays = dict(
-        vertices=coll.vertices.astype(np.float32), faces=coll.faces.astype(np.int64),
-        operators=coll.operators.astype(np.float32), split=coll.split.astype(str),
-        subcollection=coll.subcollection.astype(str), base_vertices=coll.base_basis.mesh.vertices,
-        base_evals=coll.base_basis.evals, base_evecs=coll.base_basis.evecs, base_mass=coll.base_basis.mass,
-        eval_subset=coll.eval_subset.astype(np.int64), **{f"param_{k}": np.asarray(v) for k, v in coll.params.items()},
+        vertices=coll.vertices.astype(np.float32),
+        faces=coll.faces.astype(np.int64),
+        operators=coll.operators.astype(np.float32),
+        split=coll.split.astype(str),
+        subcollection=coll.subcollection.astype(str),
+        base_vertices=coll.base_basis.mesh.vertices,
+        base_evals=coll.base_basis.evals,
+        base_evecs=coll.base_basis.evecs,
+        base_mass=coll.base_basis.mass,
+        eval_subset=coll.eval_subset.astype(np.int64),
+        **{f"param_{k}": np.asarray(v) for k, v in coll.params.items()},
     )
     for key, value in arrays.items():
         if value.dtype == object:
@@ -158,8 +187,13 @@ def save_collection(coll: Collection, path) -> Path:
         digest = _sha256(tmp)
         data = stem.with_name(f"{stem.name}.{digest[:12]}.npz")
         os.replace(tmp, data)
-        manifest = dict(coll.meta, format_version=FORMAT_VERSION, data=data.name, sha256=digest,
-                        shapes={k: list(v.shape) for k, v in arrays.items()})
+        manifest = dict(
+            coll.meta,
+            format_version=FORMAT_VERSION,
+            data=data.name,
+            sha256=digest,
+            shapes={k: list(v.shape) for k, v in arrays.items()},
+        )
         tmp_manifest.write_text(json.dumps(manifest, indent=1, sort_keys=True, default=_json_scalar))
         os.replace(tmp_manifest, stem.with_name(stem.name + ".json"))  # the commit point
     finally:
@@ -198,22 +232,27 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
         if not isinstance(manifest, dict) or "data" not in manifest:
             raise CollectionError(f"the manifest {manifest_path} is not an opnet manifest; {fix}.")
         if manifest.get("format_version") != FORMAT_VERSION:
-            raise CollectionError(f"{stem} has format {manifest.get('format_version')}, this opnet reads "
-                                  f"{FORMAT_VERSION}; {fix}.")
+            raise CollectionError(
+                f"{stem} has format {manifest.get('format_version')}, this opnet reads {FORMAT_VERSION}; {fix}."
+            )
         for key, value in (expected_meta or {}).items():
             if manifest.get(key) != value:
                 raise CollectionError(f"{stem} was built with {key}={manifest.get(key)!r}, expected {value!r}; {fix}.")
         entry = manifest["data"]
         if not isinstance(entry, str) or not _data_name(stem).fullmatch(entry):
-            raise CollectionError(f"the manifest {manifest_path} names {entry!r} as its data file, not a file "
-                                  f"'{stem.name}.<12 hex digits>.npz' beside it; {fix}.")
+            raise CollectionError(
+                f"the manifest {manifest_path} names {entry!r} as its data file, not a file "
+                f"'{stem.name}.<12 hex digits>.npz' beside it; {fix}."
+            )
         data_path = stem.with_name(entry)
         if not data_path.is_file():
             if attempt == 0:
                 continue
             raise CollectionError(f"{data_path.name}, named by the manifest, is missing; {fix}.")
         if _sha256(data_path) != manifest.get("sha256"):
-            raise CollectionError(f"{data_path} does not match the checksum in its manifest (corrupt or modified); {fix}.")
+            raise CollectionError(
+                f"{data_path} does not match the checksum in its manifest (corrupt or modified); {fix}."
+            )
         break
     try:  # the checksum matches, yet the contents may have been damaged before it was (re)computed
         with np.load(data_path) as z:
@@ -224,21 +263,44 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
         base = Mesh(data.pop("base_vertices"), data["faces"])
         basis = Eigenbasis(base, data.pop("base_evals"), data.pop("base_evecs"), data.pop("base_mass"))
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
-        raise CollectionError(f"{data_path} matches its checksum but cannot be read as a collection "
-                              f"({type(exc).__name__}: {str(exc)[:200]}); {fix}.") from None
-    params = {k[len("param_"):]: data.pop(k) for k in list(data) if k.startswith("param_")}
+        raise CollectionError(
+            f"{data_path} matches its checksum but cannot be read as a collection "
+            f"({type(exc).__name__}: {str(exc)[:200]}); {fix}."
+        ) from None
+    params = {k[len("param_") :]: data.pop(k) for k in list(data) if k.startswith("param_")}
     meta = {k: v for k, v in manifest.items() if k not in ("sha256", "shapes", "format_version", "data")}
-    return Collection(data["vertices"], data["faces"], data["operators"], data["split"],
-                      data["subcollection"], basis, data["eval_subset"], params, meta)
+    return Collection(
+        data["vertices"],
+        data["faces"],
+        data["operators"],
+        data["split"],
+        data["subcollection"],
+        basis,
+        data["eval_subset"],
+        params,
+        meta,
+    )
 
 
-def assemble(vertices: np.ndarray, faces: np.ndarray, base_vertices: np.ndarray, split: np.ndarray,
-             subcollection: np.ndarray, params: dict, meta: dict, *, k: int = 60, progress: bool | None = None,
-             n_eval: int = 5, fps_vertices: np.ndarray | None = None) -> Collection:
+def assemble(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    base_vertices: np.ndarray,
+    split: np.ndarray,
+    subcollection: np.ndarray,
+    params: dict,
+    meta: dict,
+    *,
+    k: int = 60,
+    progress: bool | None = None,
+    n_eval: int = 5,
+    fps_vertices: np.ndarray | None = None,
+) -> Collection:
     """A :class:`Collection` from shapes in correspondence: computes the base eigenbasis, the operators
     (fast path) and the evaluation subset (``n_eval`` shapes per test sub-collection by furthest-point
     sampling on Hausdorff distance: 10 × 5 = 50 as in the paper, fewer when a sequence is shorter).
-    ``fps_vertices`` (N, n', 3), default ``vertices``, are the shapes the subset is chosen on."""
+    ``fps_vertices`` (N, n', 3), default ``vertices``, are the shapes the subset is chosen on.
+    """
     from .splits import furthest_point_subset
 
     base = Mesh(base_vertices, faces)
@@ -249,29 +311,49 @@ def assemble(vertices: np.ndarray, faces: np.ndarray, base_vertices: np.ndarray,
     for sc in sorted(set(subcollection[split == "test"])):
         members = np.flatnonzero((subcollection == sc) & (split == "test"))
         subset.extend(members[furthest_point_subset(fps_vertices[members], n_eval)])
-    return Collection(vertices.astype(np.float32), faces, operators, split, subcollection, basis,
-                      np.array(sorted(subset), dtype=np.int64), params, dict(meta, k=k))
+    return Collection(
+        vertices.astype(np.float32),
+        faces,
+        operators,
+        split,
+        subcollection,
+        basis,
+        np.array(sorted(subset), dtype=np.int64),
+        params,
+        dict(meta, k=k),
+    )
 
 
 def _stem_name(meta: dict) -> str:
     """The file name (without extensions) of a generated collection: ``<name>-<preset>-<resolution>-seed<seed>-v<N>``.
-    The generator version is part of it: after an upgrade that changes the data, the collection is rebuilt."""
+    The generator version is part of it: after an upgrade that changes the data, the collection is rebuilt.
+    """
     return f"{meta['name']}-{meta['preset']}-{meta['resolution']}-seed{meta['seed']}-v{meta['generator_version']}"
 
 
-def load_collection(name: str, preset: str = "quick", root=None, *, resolution: str | None = None, seed: int = 0,
-                    rebuild: bool = False, progress: bool | None = None) -> Collection:
+def load_collection(
+    name: str,
+    preset: str = "quick",
+    root=None,
+    *,
+    resolution: str | None = None,
+    seed: int = 0,
+    rebuild: bool = False,
+    progress: bool | None = None,
+) -> Collection:
     """The collection ``name`` (``"humans"``, ``"heads"`` or ``"hands"``) at ``preset``, built if missing.
 
     ``preset`` is ``"quick"`` (a few hundred shapes, for tests), ``"default"`` (several thousand, minutes on a
     laptop CPU) or ``"paper"`` (≈17 000 training shapes like the paper's). ``resolution`` (humans only) picks
-    the ``"1k"`` (default), ``"2k"`` or ``"5k"``-vertex version of the same shapes. A cached file is reused when its parameters match;
-    a corrupt or mismatched one raises :class:`CollectionError` naming the fix (``rebuild=True``).
+    the ``"1k"`` (default), ``"2k"`` or ``"5k"``-vertex version of the same shapes. A cached file is reused when
+    its parameters match; a corrupt or mismatched one raises :class:`CollectionError` naming the fix (``rebuild=True``).
     """
-    from .generators import GENERATORS, GENERATOR_VERSION, PRESETS, shape_count
+    from .generators import GENERATOR_VERSION, GENERATORS, PRESETS, shape_count
 
     if name not in GENERATORS:
-        raise ValueError(f"unknown collection {name!r}; use one of {sorted(GENERATORS)} (or load_folder for your own meshes).")
+        raise ValueError(
+            f"unknown collection {name!r}; use one of {sorted(GENERATORS)} (or load_folder for your own meshes)."
+        )
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; use one of {list(PRESETS)}.")
     generate, resolutions = GENERATORS[name]
@@ -299,7 +381,8 @@ _BYTES_PER_SHAPE = 120_000
 
 def check_root(root: Path, needed: int) -> None:
     """Refuse a data root that cannot hold ``needed`` bytes of new files, before anything is built: a file, a
-    folder that cannot be created or written, or a disk with less free space (``CollectionError``)."""
+    folder that cannot be created or written, or a disk with less free space (``CollectionError``).
+    """
     fix = "pass root= a writable folder or set OPNET_DATA_DIR"
     try:
         root.mkdir(parents=True, exist_ok=True)
@@ -307,21 +390,29 @@ def check_root(root: Path, needed: int) -> None:
         probe.write_bytes(b"")
         probe.unlink()
     except OSError as exc:
-        raise CollectionError(f"the data root {root} is not a writable folder ({exc.strerror or exc}); {fix}.") from None
+        raise CollectionError(
+            f"the data root {root} is not a writable folder ({exc.strerror or exc}); {fix}."
+        ) from None
     free = shutil.disk_usage(root).free
     if free < needed:
-        raise CollectionError(f"the data root {root} has {free / 1e6:.0f} MB free, and this collection needs about "
-                              f"{needed / 1e6:.0f} MB; free some space, or {fix}.")
+        raise CollectionError(
+            f"the data root {root} has {free / 1e6:.0f} MB free, and this collection needs about "
+            f"{needed / 1e6:.0f} MB; free some space, or {fix}."
+        )
 
 
 def save_or_warn(coll: Collection, stem: Path) -> bool:
     """Save a freshly built collection; when that fails (e.g. the disk filled up meanwhile), warn instead of
-    raising, so that the minutes of building are not lost: the caller returns it uncached. Whether it was saved."""
+    raising, so that the minutes of building are not lost: the caller returns it uncached. Whether it was saved.
+    """
     try:
         save_collection(coll, stem)
     except OSError as exc:
-        warnings.warn(f"the collection could not be saved to {stem} ({exc}); it is returned but not cached, so it "
-                      "will be built again next time.", stacklevel=3)
+        warnings.warn(
+            f"the collection could not be saved to {stem} ({exc}); it is returned but not cached, so it "
+            "will be built again next time.",
+            stacklevel=3,
+        )
         return False
     return True
 
@@ -340,8 +431,11 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
     folder = Path(folder).resolve()
     if not folder.is_dir():
         raise CollectionError(f"{folder} is not a folder; pass the folder that holds your meshes.")
-    files = sorted(p for p in folder.iterdir()
-                   if p.suffix.lower() in (".ply", ".obj", ".off") and not p.name.startswith(".") and p.is_file())
+    files = sorted(
+        p
+        for p in folder.iterdir()
+        if p.suffix.lower() in (".ply", ".obj", ".off") and not p.name.startswith(".") and p.is_file()
+    )
     if not files:
         raise CollectionError(f"no .ply/.obj/.off meshes in {folder}.")
     meshes = []
@@ -352,8 +446,10 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
             raise CollectionError(f"{p.name} is not a usable mesh ({exc}); repair that file.") from None
     for p, m in zip(files, meshes):
         if not np.array_equal(m.faces, meshes[0].faces):
-            raise CollectionError(f"{p.name} has other faces than {files[0].name}: the meshes must be in 1-1 correspondence "
-                                  "with one shared triangulation.")
+            raise CollectionError(
+                f"{p.name} has other faces than {files[0].name}: the meshes must be in 1-1 correspondence "
+                "with one shared triangulation."
+            )
     names = [p.name for p in files]
     split = np.full(len(files), "train", dtype=object)
     subcollection = np.array([p.stem for p in files], dtype=object)
@@ -363,21 +459,26 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
         try:
             lines = table.read_text(encoding="utf-8").splitlines()
         except UnicodeDecodeError:
-            raise CollectionError(f"{table.name} is not UTF-8 text; write it as lines 'filename,split,subcollection' "
-                                  f"(in {folder}).") from None
+            raise CollectionError(
+                f"{table.name} is not UTF-8 text; write it as lines 'filename,split,subcollection' (in {folder})."
+            ) from None
         for line_no, line in enumerate(lines, 1):
             fields = [f.strip() for f in line.split(",")]
             if not line.strip() or (line_no == 1 and fields[0] == "filename"):
                 continue
             if len(fields) != 3 or fields[0] not in names or fields[1] not in SPLITS or fields[0] in seen:
-                raise CollectionError(f"{table}:{line_no}: expected 'filename,split,subcollection' with a known file "
-                                      f"listed once and a split in {SPLITS}, got {line!r}.")
+                raise CollectionError(
+                    f"{table}:{line_no}: expected 'filename,split,subcollection' with a known file "
+                    f"listed once and a split in {SPLITS}, got {line!r}."
+                )
             seen.add(fields[0])
             split[names.index(fields[0])], subcollection[names.index(fields[0])] = fields[1], fields[2]
         for sc in set(subcollection):
             if len(set(split[subcollection == sc])) > 1:
-                raise CollectionError(f"{table}: sub-collection {sc!r} spans the splits {sorted(set(split[subcollection == sc]))}; "
-                                      "a sub-collection is held out whole, so give all its shapes one split.")
+                raise CollectionError(
+                    f"{table}: sub-collection {sc!r} spans the splits {sorted(set(split[subcollection == sc]))}; "
+                    "a sub-collection is held out whole, so give all its shapes one split."
+                )
     stems = [p.stem for p in files]
     if base is None:
         base_index = 0
@@ -386,7 +487,22 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
     else:
         raise CollectionError(f"base {base!r} is not one of the meshes in {folder}.")
     vertices = np.stack([m.vertices for m in meshes])
-    meta = dict(name=folder.name, preset="folder", resolution=f"{vertices.shape[1]}", seed=0,
-                generator_version="folder", base=names[base_index])
-    return assemble(vertices, meshes[0].faces, vertices[base_index], split.astype(str), subcollection.astype(str),
-                    {"filename": np.array(names)}, meta, k=k, progress=progress)
+    meta = dict(
+        name=folder.name,
+        preset="folder",
+        resolution=f"{vertices.shape[1]}",
+        seed=0,
+        generator_version="folder",
+        base=names[base_index],
+    )
+    return assemble(
+        vertices,
+        meshes[0].faces,
+        vertices[base_index],
+        split.astype(str),
+        subcollection.astype(str),
+        {"filename": np.array(names)},
+        meta,
+        k=k,
+        progress=progress,
+    )

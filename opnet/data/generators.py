@@ -5,6 +5,7 @@ evaluated, so the 1k, 2k and 5k-vertex versions of the human collection hold the
 and parameters. The base shape is the average subject at rest (rest pose, neutral face, open hand).
 Heads and hands play the subjects' expressions and gestures as the humans play motions.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -15,7 +16,16 @@ from . import bodies
 from .collections import assemble
 from .splits import make_splits
 
-__all__ = ["PRESETS", "GENERATORS", "MOTIONS", "shape_count", "GENERATOR_VERSION", "generate_shapes", "interpolate_controls", "resolution_map"]
+__all__ = [
+    "PRESETS",
+    "GENERATORS",
+    "MOTIONS",
+    "shape_count",
+    "GENERATOR_VERSION",
+    "generate_shapes",
+    "interpolate_controls",
+    "resolution_map",
+]
 
 # Bump when a generator changes what it produces: cached collections then no longer match.
 GENERATOR_VERSION = "2"
@@ -49,18 +59,26 @@ def _design(preset: Preset, motions, rng: np.random.Generator):
         motion += ["random"] * preset.random
         frame += list(range(preset.random))
     subject, motion, frame = np.array(subject), np.array(motion), np.array(frame)
-    split = make_splits(subject, motion, rng, n_test_subjects=preset.test_subjects,
-                        n_val_subcollections=preset.val_subcollections, held_out_groups={"random"})
+    split = make_splits(
+        subject,
+        motion,
+        rng,
+        n_test_subjects=preset.test_subjects,
+        n_val_subcollections=preset.val_subcollections,
+        held_out_groups={"random"},
+    )
     sub = np.array([f"subject{s:02d}/{m}" for s, m in zip(subject, motion)])
     return subject, motion, frame, split, sub
 
 
-def _build(preset: str, seed: int, meta: dict, progress, *, motions, sequence, random, evaluate, rest, faces,
-           reference=None):
+def _build(
+    preset: str, seed: int, meta: dict, progress, *, motions, sequence, random, evaluate, rest, faces, reference=None
+):
     """A collection: ``sequence(motion, n_frames, amplitude=, offset=)`` and ``random(n, rng)`` give per-shape
     controls (poses or expression weights), ``evaluate(subjects, controls)`` the vertices; ``rest`` is the
     base's control. ``reference(subjects, controls)``, if given, evaluates the shapes on which the
-    evaluation subset is chosen (so that every resolution gets the same subset)."""
+    evaluation subset is chosen (so that every resolution gets the same subset).
+    """
     p = PRESETS[preset]
     rng = np.random.default_rng(seed)
     subjects = bodies.random_subjects(p.subjects, rng)
@@ -70,7 +88,9 @@ def _build(preset: str, seed: int, meta: dict, progress, *, motions, sequence, r
     controls = np.empty((len(subject), *rest.shape))
     for s in range(p.subjects):
         for j, m in enumerate(motions):
-            controls[(subject == s) & (motion == m)] = sequence(m, p.frames, amplitude=amplitude[s], offset=offset[s, j])
+            controls[(subject == s) & (motion == m)] = sequence(
+                m, p.frames, amplitude=amplitude[s], offset=offset[s, j]
+            )
         controls[(subject == s) & (motion == "random")] = random(p.random, rng)
     vertices = evaluate(subjects[subject], controls)
     base = evaluate(np.array([bodies.AVERAGE_SUBJECT]), rest[None])[0]
@@ -98,22 +118,49 @@ def shape_count(name: str, preset: str) -> int:
 
 def _humans(preset, resolution, seed, meta, progress=None):
     one_k = None if resolution == "1k" else _evaluator("humans", "1k")
-    return _build(preset, seed, meta, progress, motions=MOTIONS["humans"], sequence=bodies.action_poses,
-                  random=bodies.random_poses, evaluate=_evaluator("humans", resolution),
-                  rest=bodies.rest_pose(), faces=bodies.human_faces(resolution), reference=one_k)
+    return _build(
+        preset,
+        seed,
+        meta,
+        progress,
+        motions=MOTIONS["humans"],
+        sequence=bodies.action_poses,
+        random=bodies.random_poses,
+        evaluate=_evaluator("humans", resolution),
+        rest=bodies.rest_pose(),
+        faces=bodies.human_faces(resolution),
+        reference=one_k,
+    )
 
 
 def _heads(preset, resolution, seed, meta, progress=None):
-    return _build(preset, seed, meta, progress, motions=MOTIONS["heads"],
-                  sequence=bodies.expression_sequence, random=bodies.random_expressions,
-                  evaluate=_evaluator("heads", resolution), rest=np.zeros(len(bodies.FACIAL_ACTIONS)),
-                  faces=bodies.head_faces())
+    return _build(
+        preset,
+        seed,
+        meta,
+        progress,
+        motions=MOTIONS["heads"],
+        sequence=bodies.expression_sequence,
+        random=bodies.random_expressions,
+        evaluate=_evaluator("heads", resolution),
+        rest=np.zeros(len(bodies.FACIAL_ACTIONS)),
+        faces=bodies.head_faces(),
+    )
 
 
 def _hands(preset, resolution, seed, meta, progress=None):
-    return _build(preset, seed, meta, progress, motions=MOTIONS["hands"],
-                  sequence=bodies.gesture_sequence, random=bodies.random_hand_poses,
-                  evaluate=_evaluator("hands", resolution), rest=bodies.hand_poses({}, 1)[0], faces=bodies.hand_faces())
+    return _build(
+        preset,
+        seed,
+        meta,
+        progress,
+        motions=MOTIONS["hands"],
+        sequence=bodies.gesture_sequence,
+        random=bodies.random_hand_poses,
+        evaluate=_evaluator("hands", resolution),
+        rest=bodies.hand_poses({}, 1)[0],
+        faces=bodies.hand_faces(),
+    )
 
 
 #: name -> (generator, resolutions it offers; the first is the default)
@@ -127,8 +174,10 @@ GENERATORS = {
 def _generated(collection) -> str:
     name = collection.meta.get("name")
     if name not in GENERATORS or not {"phenotypes", "controls"} <= set(collection.params):
-        raise ValueError(f"this collection ({name!r}) was not made by a generator of {sorted(GENERATORS)}, so its "
-                         "shapes cannot be generated anew; use opnet.data.load_collection('humans' | 'heads' | 'hands').")
+        raise ValueError(
+            f"this collection ({name!r}) was not made by a generator of {sorted(GENERATORS)}, so its "
+            "shapes cannot be generated anew; use opnet.data.load_collection('humans' | 'heads' | 'hands')."
+        )
     return name
 
 
@@ -137,7 +186,8 @@ def generate_shapes(collection, phenotypes, controls, *, resolution: str | None 
 
     ``resolution`` (humans: a key of :data:`opnet.data.bodies.RESOLUTIONS`) gives the same shapes on another
     triangulation instead, whose faces are ``bodies.human_faces(resolution)``: the 2k and 5k meshes that
-    :mod:`opnet.matching` maps onto a 1k base. ``phenotypes`` ``(N, 6)`` and ``controls`` ``(N, ...)`` are generator parameters like the collection's own
+    :mod:`opnet.matching` maps onto a 1k base. ``phenotypes`` ``(N, 6)`` and ``controls`` ``(N, ...)`` are
+    generator parameters like the collection's own
     ``params["phenotypes"]`` and ``params["controls"]`` (body or hand poses ``(bones, 4, 4)``, or facial
     expression weights): mixing one shape's body with another's pose gives a shape the collection does not hold,
     with its ground truth (the analogy benchmark of :mod:`opnet.apps`).
@@ -146,13 +196,16 @@ def generate_shapes(collection, phenotypes, controls, *, resolution: str | None 
     phenotypes, controls = np.asarray(phenotypes, np.float64), np.asarray(controls, np.float64)
     expected = collection.params["controls"].shape[1:]
     if phenotypes.ndim != 2 or controls.shape[1:] != expected or len(controls) != len(phenotypes):
-        raise ValueError(f"phenotypes must be (N, {len(bodies.PHENOTYPES)}) and controls (N, {', '.join(map(str, expected))}) "
-                         f"with the same N, got {phenotypes.shape} and {controls.shape}.")
+        raise ValueError(
+            f"phenotypes must be (N, {len(bodies.PHENOTYPES)}) and controls (N, {', '.join(map(str, expected))}) "
+            f"with the same N, got {phenotypes.shape} and {controls.shape}."
+        )
     if resolution is None:
         resolution = collection.meta.get("resolution")
     elif name != "humans" or resolution not in bodies.RESOLUTIONS:
-        raise ValueError(f"resolution applies to the humans, one of {list(bodies.RESOLUTIONS)}; got {resolution!r} "
-                         f"for the {name}.")
+        raise ValueError(
+            f"resolution applies to the humans, one of {list(bodies.RESOLUTIONS)}; got {resolution!r} for the {name}."
+        )
     return _evaluator(name, resolution)(phenotypes, controls)
 
 
@@ -160,12 +213,14 @@ def resolution_map(collection, resolution: str):
     """The generator's own correspondence between its ``resolution`` mesh and the collection's base: the sparse
     ``(n_resolution, n_base)`` barycentric map of the base's rest shape on one triangulation onto the other (closest
     points, :func:`opnet.matching.closest_point_map`). The same for every shape, since both meshes are rigged alike:
-    the true map that computed maps of ``generate_shapes(..., resolution=)`` are measured against."""
+    the true map that computed maps of ``generate_shapes(..., resolution=)`` are measured against.
+    """
     from ..matching import closest_point_map
     from ..mesh import Mesh
 
-    rest = generate_shapes(collection, np.array([bodies.AVERAGE_SUBJECT]), bodies.rest_pose()[None],
-                           resolution=resolution)[0]
+    rest = generate_shapes(
+        collection, np.array([bodies.AVERAGE_SUBJECT]), bodies.rest_pose()[None], resolution=resolution
+    )[0]
     return closest_point_map(collection.base_basis, Mesh(rest, bodies.human_faces(resolution))).to_base
 
 

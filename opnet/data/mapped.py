@@ -20,6 +20,7 @@ in chunks: each finished chunk of shapes ``start`` to ``stop`` is written atomic
 ``<stem>.part-<start>-<stop>.npz``, so an interrupted build continues where it stopped (with the same ``chunk``),
 and the parts are removed once the collection is saved.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -31,8 +32,16 @@ import numpy as np
 
 from .._checks import check_int, is_integer
 from .._files import atomic_write, remove_stale_tmp
-from .collections import (_BYTES_PER_SHAPE, Collection, CollectionError, _stem_name, check_root, default_root,
-                          read_collection, save_or_warn)
+from .collections import (
+    _BYTES_PER_SHAPE,
+    Collection,
+    CollectionError,
+    _stem_name,
+    check_root,
+    default_root,
+    read_collection,
+    save_or_warn,
+)
 
 __all__ = ["mapped_collection", "MAPS", "MAP_K"]
 
@@ -44,9 +53,19 @@ _FORMAT = 1  # of the parts and of what the stem's hash covers
 _FIELDS = ("operators", "map_error", "coverage", "orientation")  # of a part
 
 
-def mapped_collection(collection: Collection, resolution: str = "2k", maps: str = "computed", *, indices=None,
-                      root=None, rebuild: bool = False, n_jobs: int = -1, chunk: int = 32, k: int = MAP_K,
-                      progress: bool | None = None) -> Collection:
+def mapped_collection(
+    collection: Collection,
+    resolution: str = "2k",
+    maps: str = "computed",
+    *,
+    indices=None,
+    root=None,
+    rebuild: bool = False,
+    n_jobs: int = -1,
+    chunk: int = 32,
+    k: int = MAP_K,
+    progress: bool | None = None,
+) -> Collection:
     """``collection``'s shapes (or those of ``indices``) with operators through maps from their ``resolution`` mesh.
 
     Parameters
@@ -83,8 +102,10 @@ def mapped_collection(collection: Collection, resolution: str = "2k", maps: str 
     if not isinstance(collection, Collection):
         raise TypeError(f"collection must be an opnet.data.Collection, got {type(collection).__name__}.")
     if _generated(collection) != "humans" or collection.meta.get("resolution") != "1k":
-        raise ValueError("mapped collections are made from the generated 1k humans "
-                         "(opnet.data.load_collection('humans', preset)): they alone come in other triangulations.")
+        raise ValueError(
+            "mapped collections are made from the generated 1k humans "
+            "(opnet.data.load_collection('humans', preset)): they alone come in other triangulations."
+        )
     if resolution not in bodies.RESOLUTIONS:
         raise ValueError(f"resolution must be one of {list(bodies.RESOLUTIONS)}, got {resolution!r}.")
     if maps not in MAPS:
@@ -99,8 +120,13 @@ def mapped_collection(collection: Collection, resolution: str = "2k", maps: str 
     m = collection.meta
     stem = Path(root) if root is not None else default_root()
     stem = stem / f"{_stem_name(m)}-{maps}{resolution}-{_fingerprint(source, k)}"
-    meta = dict(source.meta, maps=maps, map_resolution=resolution, map_k=int(k),
-                source=f"{m['name']}-{m['preset']}-{m['resolution']}")
+    meta = dict(
+        source.meta,
+        maps=maps,
+        map_resolution=resolution,
+        map_k=int(k),
+        source=f"{m['name']}-{m['preset']}-{m['resolution']}",
+    )
     if not rebuild and stem.with_name(stem.name + ".json").is_file():
         return read_collection(stem, expected_meta=meta)
     check_root(stem.parent, len(source) * _BYTES_PER_SHAPE)
@@ -110,8 +136,9 @@ def mapped_collection(collection: Collection, resolution: str = "2k", maps: str 
     results = _compute(source, stem, resolution, maps, k, n_jobs, chunk, progress)
     operators, error, coverage, orientation = (np.concatenate(r) for r in zip(*results))
     if len(operators) != len(source):  # the parts must tile the shapes exactly
-        raise CollectionError(f"the parts of {stem} hold {len(operators)} shapes, not {len(source)}; "
-                              "pass rebuild=True.")
+        raise CollectionError(
+            f"the parts of {stem} hold {len(operators)} shapes, not {len(source)}; pass rebuild=True."
+        )
     params = dict(source.params, map_error=error, map_coverage=coverage, map_orientation=orientation)
     out = replace(source, operators=operators, params=params, meta=meta)
     if save_or_warn(out, stem):  # else the parts stay, and the next call assembles them without recomputing
@@ -121,7 +148,8 @@ def mapped_collection(collection: Collection, resolution: str = "2k", maps: str 
 
 def _fingerprint(source: Collection, k: int) -> str:
     """What the operators depend on: the shapes' generator parameters, the base, the versions of the map's code
-    (:data:`opnet.matching.MAP_VERSION`, pyFM's) and ``k``; 12 hex digits."""
+    (:data:`opnet.matching.MAP_VERSION`, pyFM's) and ``k``; 12 hex digits.
+    """
     from importlib.metadata import version
 
     from ..matching import MAP_VERSION
@@ -139,7 +167,8 @@ def _remove_parts(stem: Path) -> None:
 
 def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int, n_jobs: int, chunk: int, progress):
     """Per chunk of shapes ``(operators, map_error, coverage, orientation)``, read from finished parts or computed
-    (in ``n_jobs`` processes) and stored as parts."""
+    (in ``n_jobs`` processes) and stored as parts.
+    """
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm
 
@@ -158,16 +187,22 @@ def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int,
             except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
                 raise CollectionError(f"{path} is unreadable ({exc}); delete it or pass rebuild=True.") from None
     todo = [s for s in starts if s not in done]
-    bar = tqdm(total=len(source), initial=sum(len(r[0]) for r in done.values()), unit="shape",
-               desc=f"{maps} maps from {resolution}", disable=progress is False or (progress is None and len(todo) < 2))
+    bar = tqdm(
+        total=len(source),
+        initial=sum(len(r[0]) for r in done.values()),
+        unit="shape",
+        desc=f"{maps} maps from {resolution}",
+        disable=progress is False or (progress is None and len(todo) < 2),
+    )
     true_to_base = resolution_map(source, resolution)
     faces = bodies.human_faces(resolution)
     spectrum = eigenbasis(source.base_basis.mesh, k) if maps == "computed" else None  # the base's, once
 
     def task(s):
         sl = slice(s, s + chunk)
-        vertices = generate_shapes(source, source.params["phenotypes"][sl], source.params["controls"][sl],
-                                   resolution=resolution)
+        vertices = generate_shapes(
+            source, source.params["phenotypes"][sl], source.params["controls"][sl], resolution=resolution
+        )
         return delayed(_map_chunk)(source.base_basis, spectrum, vertices, faces, true_to_base)
 
     with Parallel(n_jobs=n_jobs, return_as="generator") as parallel:
@@ -182,7 +217,8 @@ def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int,
 def _map_chunk(base_basis, spectrum, vertices, faces, true_to_base):
     """Operators ``(c, 3, k0, k0)`` float32, map errors (metres), coverage and orientation ``(c,)`` of ``c`` shapes
     ``vertices`` ``(c, n, 3)`` on ``faces``: through computed maps with the base's ``spectrum`` (its first ``k``
-    eigenpairs), or through the true map ``true_to_base`` when ``spectrum`` is None."""
+    eigenpairs), or through the true map ``true_to_base`` when ``spectrum`` is None.
+    """
     from ..matching import SurfaceMap, compute_map, operators_through_map
     from ..mesh import Mesh
 

@@ -1,4 +1,5 @@
 """Splits like the paper's (held-out sub-collections, unseen subjects) and its 50-shape evaluation subset."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -9,8 +10,16 @@ from ..mesh import farthest_first
 __all__ = ["make_splits", "hausdorff", "furthest_point_subset"]
 
 
-def make_splits(subjects: np.ndarray, groups: np.ndarray, rng: np.random.Generator, *, n_test_subcollections: int = 10,
-                n_test_subjects: int = 1, n_val_subcollections: int = 3, held_out_groups=None) -> np.ndarray:
+def make_splits(
+    subjects: np.ndarray,
+    groups: np.ndarray,
+    rng: np.random.Generator,
+    *,
+    n_test_subcollections: int = 10,
+    n_test_subjects: int = 1,
+    n_val_subcollections: int = 3,
+    held_out_groups=None,
+) -> np.ndarray:
     """Split labels ``(N,)``: ``"train"``, ``"val"``, ``"test"`` and ``"test_subjects"``.
 
     A sub-collection is a (subject, group) pair, e.g. one person performing one action.
@@ -44,7 +53,7 @@ def hausdorff(X: np.ndarray, Y: np.ndarray) -> float:
 
 
 def furthest_point_subset(vertices: np.ndarray, n: int) -> np.ndarray:
-    """Indices of up to ``n`` distinct shapes ``(N, n_vertices, 3)`` chosen by furthest-point sampling on Hausdorff distance.
+    """Indices of up to ``n`` distinct shapes ``(N, n_vertices, 3)``, by furthest-point sampling on Hausdorff distance.
 
     Starts from shape 0 and repeatedly adds the shape furthest (in Hausdorff distance)
     from those already chosen; needs ``n · N`` distances, not the ``N²`` matrix.

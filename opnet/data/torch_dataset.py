@@ -1,4 +1,5 @@
 """A PyTorch ``Dataset`` over a :class:`~opnet.data.Collection`: (operators, vertices) pairs in float32."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -23,7 +24,9 @@ class OperatorDataset(torch.utils.data.Dataset):
         self.indices = collection.indices(split)
         self.channels = tuple(channels)
         chans = [KINDS.index(c) for c in self.channels]
-        self.operators = torch.from_numpy(np.ascontiguousarray(collection.operators[self.indices][:, chans], np.float32))
+        self.operators = torch.from_numpy(
+            np.ascontiguousarray(collection.operators[self.indices][:, chans], np.float32)
+        )
         self.vertices = torch.from_numpy(np.ascontiguousarray(collection.vertices[self.indices], np.float32))
 
     def __len__(self) -> int:

@@ -5,9 +5,11 @@ The deformations mimic the two kinds of change the paper's operators separate:
 :func:`bulge` a change of *local area*. All meshes of one resolution share their
 faces, so they are in 1-1 correspondence.
 """
+
 from __future__ import annotations
 
 import numpy as np
+
 from ..mesh import Mesh
 
 __all__ = ["capsule", "bend", "bulge", "finger_pair"]
@@ -32,10 +34,15 @@ def capsule(preset: str = "default", length: float = 2.0, radius: float = 0.25) 
     lower, upper = s < cap, s > cap + length
     phi = np.where(lower, s / radius, np.where(upper, (total - s) / radius, 0.5 * np.pi))
     rho = radius * np.sin(phi)
-    z = np.where(lower, -0.5 * length - radius * np.cos(phi),
-                 np.where(upper, 0.5 * length + radius * np.cos(phi), s - cap - 0.5 * length))
+    z = np.where(
+        lower,
+        -0.5 * length - radius * np.cos(phi),
+        np.where(upper, 0.5 * length + radius * np.cos(phi), s - cap - 0.5 * length),
+    )
     theta = 2 * np.pi * (np.arange(n_seg)[None, :] + 0.5 * (np.arange(len(s))[:, None] % 2)) / n_seg
-    ring = np.stack([rho[:, None] * np.cos(theta), rho[:, None] * np.sin(theta), np.broadcast_to(z[:, None], theta.shape)], -1)
+    ring = np.stack(
+        [rho[:, None] * np.cos(theta), rho[:, None] * np.sin(theta), np.broadcast_to(z[:, None], theta.shape)], -1
+    )
     bottom, top = 0, 1 + ring.shape[0] * n_seg
     vertices = np.vstack([[0, 0, -0.5 * length - radius], ring.reshape(-1, 3), [0, 0, 0.5 * length + radius]])
     j = np.arange(n_seg)
@@ -43,10 +50,18 @@ def capsule(preset: str = "default", length: float = 2.0, radius: float = 0.25) 
     nxt = np.roll(idx, -1, axis=1)
     a, b, c, d = idx[:-1], nxt[:-1], idx[1:], nxt[1:]
     odd = (np.arange(len(s) - 1) % 2 == 1)[:, None]  # alternate rings are offset by half a step
-    quads = np.concatenate([np.where(odd[..., None], np.stack([a, d, c], -1), np.stack([a, b, c], -1)),
-                            np.where(odd[..., None], np.stack([a, b, d], -1), np.stack([b, d, c], -1))]).reshape(-1, 3)
-    caps = np.concatenate([np.stack([np.full(n_seg, bottom), idx[0, (j + 1) % n_seg], idx[0]], -1),
-                           np.stack([np.full(n_seg, top), idx[-1], idx[-1, (j + 1) % n_seg]], -1)])
+    quads = np.concatenate(
+        [
+            np.where(odd[..., None], np.stack([a, d, c], -1), np.stack([a, b, c], -1)),
+            np.where(odd[..., None], np.stack([a, b, d], -1), np.stack([b, d, c], -1)),
+        ]
+    ).reshape(-1, 3)
+    caps = np.concatenate(
+        [
+            np.stack([np.full(n_seg, bottom), idx[0, (j + 1) % n_seg], idx[0]], -1),
+            np.stack([np.full(n_seg, top), idx[-1], idx[-1, (j + 1) % n_seg]], -1),
+        ]
+    )
     return Mesh(vertices, np.vstack([quads, caps]))
 
 
@@ -75,7 +90,7 @@ def bulge(vertices: np.ndarray, amount: float, center: float = -0.6, width: floa
 
 
 def finger_pair(preset: str = "default") -> tuple[Mesh, Mesh]:
-    """A base finger folded by 120° and a target that is straightened (bent by −10°) and inflated by 50 % near the bottom.
+    """A base finger folded by 120° and a target straightened (bent by −10°) and inflated by 50 % near the bottom.
 
     Straightening moves the tip away from the rest of the shape (distances grow, as when
     a person raises an arm in the paper's figure), while the bulge changes local area.
