@@ -10,6 +10,7 @@ Public API::
     G     = opnet.gram_matrix(basis, X);  Y = opnet.recover_embedding(G, basis)
     Dt    = opnet.interpolate(D0, D1, t, scheme="multiplicative" | "linear")
     DX    = opnet.analogy(DA, DB, DC)          # D_X = D_C D_A⁺ D_B
+    opnet.testing.check_inner_product(MyInnerProduct(), mesh)   # for a new inner product: one line per failed property
     D     = opnet.encode(any_mesh, base_basis, fmap="computed")   # (3, k, k) through a computed map (pyFM)
     X     = opnet.decode(net, D)                 # (n, 3) on the base's triangulation
     net   = opnet.OperatorNet(n_vertices, k=60)  # (B, 3, k, k) -> (B, n, 3); loss: opnet.rigid_alignment_loss
@@ -25,7 +26,7 @@ The modules ``train``, ``evaluate`` (home of ``decode``), ``reproduce``, ``model
 (home of ``reconstruct``), ``apps`` and ``widgets`` use torch or the notebook stack, so they load on first use.
 """
 
-from . import data
+from . import data, testing
 from .algebra import analogy, interpolate, log_difference, relative_difference
 from .fmaps import FunctionalMap, fmap_from_p2p, fmap_from_soft_map, identity_fmap
 from .gram import gram_matrix, recover_embedding
@@ -47,6 +48,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "data",
+    "testing",
     "Mesh",
     "MeshError",
     "MeshWarning",
