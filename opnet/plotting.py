@@ -123,25 +123,40 @@ def plot_meshes(
     return plotter
 
 
-def plot_operators(operators, titles=None, *, vmax=None, cmap="RdBu_r"):
+def plot_operators(operators, titles=None, *, vmax=None, cmap="RdBu_r", skip_constant: bool = True):
     """Heat maps of ``k × k`` operators side by side; returns the matplotlib figure.
 
-    The colour range is symmetric about 0 (``vmax`` defaults to each operator's largest
-    absolute entry), so positive and negative entries read alike.
+    The colour range is symmetric about 0, so positive and negative entries read alike. ``vmax`` defaults to
+    each operator's largest absolute entry off its first row and column (``skip_constant``): those belong to
+    the constant function, on which a conformal or extrinsic ``D − I`` is ``−1`` and would otherwise swamp
+    the rest of the map. When that clips entries, they saturate and the figure says so beneath the maps.
     """
     import matplotlib.pyplot as plt
 
     operators = [np.asarray(D) for D in operators]
     titles = titles or [None] * len(operators)
     fig, axes = plt.subplots(1, len(operators), figsize=(3.3 * len(operators), 3.2), squeeze=False)
+    clipped = False
     for ax, D, t in zip(axes[0], operators, titles):
-        m = vmax or np.abs(D).max()
+        block = D[1:, 1:] if skip_constant and min(D.shape) > 1 else D
+        m = vmax or float(np.abs(block).max()) or 1.0
+        clipped |= bool(np.abs(D).max() > m)
         im = ax.imshow(D, cmap=cmap, vmin=-m, vmax=m)
         ax.set_title(t)
         ax.set_xticks([])
         ax.set_yticks([])
         fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
     fig.tight_layout()
+    if clipped:
+        fig.text(
+            0.5,
+            0.0,
+            "colour range set by the entries off the first row and column (the constant function); "
+            "those beyond it saturate",
+            ha="center",
+            va="top",
+            fontsize=8,
+        )
     return fig
 
 
