@@ -299,3 +299,12 @@ def test_an_unusable_data_root_is_found_before_building(coll, tmp_path, monkeypa
     with pytest.warns(UserWarning, match="could not be saved.*No space left"):
         got = opnet.data.load_collection("humans", "quick", tmp_path / "ok")
     assert built == ["quick"] and len(got) == len(coll)
+
+
+def test_the_manifest_records_the_channel_order(coll, tmp_path):
+    path = opnet.data.save_collection(coll, tmp_path / "toy")
+    manifest = json.loads(path.read_text())
+    assert manifest["channels"] == list(opnet.KINDS)
+    path.write_text(json.dumps(dict(manifest, channels=["extrinsic", "area", "conformal"])))
+    with pytest.raises(CollectionError, match=r"channel order \['extrinsic', 'area', 'conformal'\].*rebuild=True"):
+        opnet.data.read_collection(path)

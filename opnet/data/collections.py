@@ -14,7 +14,7 @@ generated from. On disk, a collection stored under the path ``stem`` is two file
     subset), and ``param_<name>`` arrays (N, ...) of per-shape parameters.
 ``stem.json``
     the manifest: format and generator versions, name, preset, resolution, seed, k, the
-    shapes of the arrays, the data file's name and its full SHA-256.
+    shapes of the arrays, the operators' channel order, the data file's name and its full SHA-256.
 
 The manifest is the commit point: the data is written under a temporary name and renamed,
 then the manifest is written under a temporary name and renamed over the old one, and only
@@ -193,6 +193,7 @@ def save_collection(coll: Collection, path) -> Path:
             data=data.name,
             sha256=digest,
             shapes={k: list(v.shape) for k, v in arrays.items()},
+            channels=list(KINDS),  # the order of the operators' second axis
         )
         tmp_manifest.write_text(json.dumps(manifest, indent=1, sort_keys=True, default=_json_scalar))
         os.replace(tmp_manifest, stem.with_name(stem.name + ".json"))  # the commit point
@@ -268,7 +269,12 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
             f"({type(exc).__name__}: {str(exc)[:200]}); {fix}."
         ) from None
     params = {k[len("param_") :]: data.pop(k) for k in list(data) if k.startswith("param_")}
-    meta = {k: v for k, v in manifest.items() if k not in ("sha256", "shapes", "format_version", "data")}
+    if manifest.get("channels", list(KINDS)) != list(KINDS):  # written before channels were recorded: KINDS
+        raise CollectionError(
+            f"{stem} stores its operators in the channel order {manifest['channels']}, this opnet "
+            f"reads {list(KINDS)}; {fix}."
+        )
+    meta = {k: v for k, v in manifest.items() if k not in ("sha256", "shapes", "format_version", "data", "channels")}
     return Collection(
         data["vertices"],
         data["faces"],
