@@ -28,7 +28,6 @@ __all__ = [
     "unique_edges",
     "edge_face_counts",
     "face_areas",
-    "degenerate_faces",
     "farthest_first",
     "furthest_vertices",
     "vertex_faces",
@@ -186,11 +185,6 @@ def _quality(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     edges2 = sum(np.sum((corners[..., (c + 1) % 3, :] - corners[..., c, :]) ** 2, axis=-1) for c in range(3))
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.nan_to_num(4 * np.sqrt(3) * triangle_areas(corners) / edges2)
-
-
-def degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Mask ``(..., m)`` of faces too close to collapsed for cotan weights: quality below ``REFUSE_QUALITY``."""
-    return face_quality(vertices, faces) < REFUSE_QUALITY
 
 
 def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_size: int = 64) -> None:
