@@ -105,15 +105,35 @@ __all__ = [
 _TORCH_MODULES = ("model", "train", "evaluate", "reproduce", "torch_ops", "geometric", "apps", "widgets")
 
 
+# The extra that brings each optional package (pyproject.toml's optional-dependencies).
+_EXTRAS = {
+    "torch": "net",
+    "anny": "data",
+    "joblib": "data",
+    "pyFM": "maps",
+    "pyvista": "viz",
+    "matplotlib": "viz",
+    "ipywidgets": "viz",
+}
+
+
 def __getattr__(name):  # import torch only when the network is asked for
     import importlib
 
-    if name in ("OperatorNet", "rigid_alignment_loss"):
-        return getattr(importlib.import_module(".model", __name__), name)
-    if name == "decode":
-        return importlib.import_module(".evaluate", __name__).decode
-    if name == "reconstruct":
-        return importlib.import_module(".geometric", __name__).reconstruct
-    if name in _TORCH_MODULES:
-        return importlib.import_module(f".{name}", __name__)
+    try:
+        if name in ("OperatorNet", "rigid_alignment_loss"):
+            return getattr(importlib.import_module(".model", __name__), name)
+        if name == "decode":
+            return importlib.import_module(".evaluate", __name__).decode
+        if name == "reconstruct":
+            return importlib.import_module(".geometric", __name__).reconstruct
+        if name in _TORCH_MODULES:
+            return importlib.import_module(f".{name}", __name__)
+    except ModuleNotFoundError as exc:
+        if exc.name not in _EXTRAS:
+            raise
+        raise ImportError(
+            f"opnet.{name} needs {exc.name}, which is not installed: pip install "
+            f"'opnet[{_EXTRAS[exc.name]}]' (or 'opnet[all]')."
+        ) from exc
     raise AttributeError(f"module 'opnet' has no attribute {name!r}")

@@ -1,6 +1,8 @@
 """The project's files agree with each other: environment.yml, pyproject.toml, the public API."""
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import tomllib
@@ -17,7 +19,8 @@ def names(requirements):
 
 def test_environment_yml_names_the_same_packages_as_pyproject():
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
-    wanted = names(project["dependencies"]) | names(project["optional-dependencies"]["test"])
+    extras = [r for group in project["optional-dependencies"].values() for r in group if not r.startswith("opnet[")]
+    wanted = names(project["dependencies"]) | names(extras)
     conda, pip = set(), []
     text = (ROOT / "environment.yml").read_text()
     in_pip = False
@@ -48,3 +51,28 @@ def test_public_api_is_importable_and_complete():
         "analogy",
     ):
         assert name in opnet.__all__
+
+
+def test_the_core_imports_neither_torch_nor_anny_nor_pyvista():
+    """``import opnet`` and the core operators run without the extras' heavy packages (net, data, viz)."""
+    code = (
+        "import sys, opnet\n"
+        "base, target = opnet.data.toy.finger_pair('quick')\n"
+        "basis = opnet.eigenbasis(base, 10)\n"
+        "opnet.shape_differences(basis, target.vertices[None], progress=False)\n"
+        "opnet.recover_embedding(opnet.gram_matrix(basis, target.vertices), basis)\n"
+        "print(sorted(m for m in ('torch', 'anny', 'pyvista', 'matplotlib', 'pyFM') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_a_missing_extra_is_named():
+    """A module of an extra whose package is missing says which extra to install."""
+    code = (
+        "import sys; sys.modules['torch'] = None\n"  # as if torch were not installed
+        "import opnet\n"
+        "try:\n    opnet.OperatorNet\nexcept ImportError as e:\n    print(e)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert "pip install 'opnet[net]'" in out
