@@ -149,7 +149,7 @@ def decode(net, operators, kinds=KINDS) -> np.ndarray:
             f"the network reads {missing}, which the operators (channels {kinds}) do not hold; "
             "encode them with kinds=net.channels or all of opnet.KINDS."
         )
-    out = _predict(net, batch[:, [kinds.index(c) for c in net.channels]].astype(np.float32))
+    out = _predict(net, batch[:, [kinds.index(c) for c in net.channels]])  # float32 already: no copy
     return out[0] if single else out
 
 

@@ -187,13 +187,19 @@ def _quality(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
         return np.nan_to_num(4 * np.sqrt(3) * triangle_areas(corners) / edges2)
 
 
+def _out_of_range(spans: np.ndarray) -> np.ndarray:
+    """Which spans lie outside ``SPAN_RANGE`` (0, all vertices in one point, is left to the quality check)."""
+    return ((spans > 0) & (spans < SPAN_RANGE[0])) | (spans > SPAN_RANGE[1])
+
+
 def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_size: int = 64) -> None:
     """Refuse shapes ``(B, n, 3)`` sharing ``faces`` whose scale is out of range or that have collapsed faces
     (``ValueError`` naming ``name`` and the first shape), and warn (:class:`MeshWarning`) about near-degenerate
     ones. Checked ``batch_size`` shapes at a time (the triangles of a whole collection take gigabytes).
     """
-    spans = span(vertices)
-    bad = ((spans > 0) & (spans < SPAN_RANGE[0])) | (spans > SPAN_RANGE[1])  # 0: all faces collapsed, below
+    batches = range(0, len(vertices), batch_size)
+    spans = np.concatenate([np.zeros(0)] + [span(vertices[s : s + batch_size]) for s in batches])
+    bad = _out_of_range(spans)
     if bad.any():
         i = np.flatnonzero(bad)[0]
         raise ValueError(
@@ -201,10 +207,7 @@ def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_si
             f"units (first: shape {i}, {spans[i]:.3g}), where float64 areas and the extrinsic operator "
             "under- or overflow; rescale the coordinates."
         )
-    quality = np.concatenate(
-        [np.zeros(0)]
-        + [_quality(vertices[s : s + batch_size], faces).min(-1) for s in range(0, len(vertices), batch_size)]
-    )
+    quality = np.concatenate([np.zeros(0)] + [_quality(vertices[s : s + batch_size], faces).min(-1) for s in batches])
     for what, limit in (("zero-area (collapsed)", REFUSE_QUALITY), ("near-degenerate", WARN_QUALITY)):
         low = quality < limit
         if low.any():
@@ -356,11 +359,11 @@ class Mesh:
         diagonal = float(span(v))
         if normalize_area and diagonal > 0:  # checked and normalised at unit size, so that any finite scale works
             v = v / diagonal
-        elif 0 < diagonal < SPAN_RANGE[0] or diagonal > SPAN_RANGE[1]:  # 0: all faces collapsed, said below
+        elif _out_of_range(np.array(diagonal)):
             raise MeshError(
                 f"the mesh spans {diagonal:.3g} length units (bounding-box diagonal), outside {list(SPAN_RANGE)}, "
-                "where "
-                "float64 areas and the extrinsic operator (∝ length⁶) under- or overflow; rescale the coordinates "
+                "where float64 areas and the extrinsic operator (∝ length⁶) under- or overflow; rescale the "
+                "coordinates "
                 f"(e.g. vertices / {diagonal:.3g}) or pass normalize_area=True."
             )
         self._check_faces(v, f)
