@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 import opnet
-from opnet.data import bodies
+from opnet.data import humans
 from opnet.data.generators import generate_shapes, resolution_map
 from opnet.matching import SurfaceMap, compute_map, operators_through_map
 
@@ -64,7 +64,7 @@ def main(argv=None):
         )
     signal = np.linalg.norm(truth_ops - np.eye(basis.k), axis=(2, 3))  # (N, 3)
     for res in args.resolutions:
-        faces = bodies.human_faces(res)
+        faces = humans.human_faces(res)
         shapes = generate_shapes(ds, ds.params["phenotypes"][idx], ds.params["controls"][idx], resolution=res)
         true_to_base = resolution_map(ds, res)  # one triangulation of the rest shape onto the other
         for label, options in (("true", None), ("computed", {}), ("no orientation", {"orientation": False})):

@@ -105,18 +105,6 @@ __all__ = [
 _TORCH_MODULES = ("model", "train", "evaluate", "reproduce", "torch_ops", "geometric", "apps", "widgets")
 
 
-# The extra that brings each optional package (pyproject.toml's optional-dependencies).
-_EXTRAS = {
-    "torch": "net",
-    "anny": "data",
-    "joblib": "data",
-    "pyFM": "maps",
-    "pyvista": "viz",
-    "matplotlib": "viz",
-    "ipywidgets": "viz",
-}
-
-
 def __getattr__(name):  # import torch only when the network is asked for
     import importlib
 
@@ -130,10 +118,10 @@ def __getattr__(name):  # import torch only when the network is asked for
         if name in _TORCH_MODULES:
             return importlib.import_module(f".{name}", __name__)
     except ModuleNotFoundError as exc:
-        if exc.name not in _EXTRAS:
+        from ._extras import missing_extra
+
+        error = missing_extra(exc, f"opnet.{name}")
+        if error is None:
             raise
-        raise ImportError(
-            f"opnet.{name} needs {exc.name}, which is not installed: pip install "
-            f"'opnet[{_EXTRAS[exc.name]}]' (or 'opnet[all]')."
-        ) from exc
+        raise error from exc
     raise AttributeError(f"module 'opnet' has no attribute {name!r}")

@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from ._extras import require
 from .fmaps import FunctionalMap
 from .inner_products import checked_gram, get_inner_products
 from .mesh import Mesh, closest_points_on_faces, edge_face_counts, face_areas
@@ -208,9 +209,7 @@ def closest_point_map(base_basis: Eigenbasis, mesh: Mesh) -> SurfaceMap:
 
 
 def _pyfm_mesh(basis: Eigenbasis):
-    from pyFM.mesh import TriMesh
-
-    m = TriMesh(np.array(basis.mesh.vertices), np.array(basis.mesh.faces))
+    m = require("pyFM.mesh", "opnet.matching").TriMesh(np.array(basis.mesh.vertices), np.array(basis.mesh.faces))
     m.eigenvalues, m.eigenvectors = basis.evals, basis.evecs
     m.mass, m.stiffness = sp.diags(basis.mass).tocsc(), basis.mesh.stiffness
     return m
@@ -259,8 +258,8 @@ def compute_map(
         raise ValueError(
             f"k={k} functions need meshes of more than {k} vertices; the smaller has {n_max + 1}. Pass a smaller k."
         )
-    from pyFM.functional import FunctionalMapping
-    from pyFM.spectral.nearest_neighbor.dispatch import knn_query
+    FunctionalMapping = require("pyFM.functional", "opnet.matching").FunctionalMapping
+    knn_query = require("pyFM.spectral.nearest_neighbor.dispatch", "opnet.matching").knn_query
 
     spectrum = base_spectrum if base_spectrum is not None else eigenbasis(base_basis.mesh, k)
     if spectrum.mesh is not base_basis.mesh or spectrum.k < k:

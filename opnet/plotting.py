@@ -6,6 +6,7 @@ import os
 
 import numpy as np
 
+from ._extras import require
 from .mesh import Mesh
 
 __all__ = [
@@ -28,7 +29,7 @@ def headless() -> None:
     """Render pyvista off screen (through EGL when there is no display), e.g. to save screenshots from a script."""
     if not os.environ.get("DISPLAY"):
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    import pyvista as pv
+    pv = require("pyvista", "opnet.plotting")
 
     pv.OFF_SCREEN = True
 
@@ -39,7 +40,7 @@ def use_static_backend(window_size=(900, 300)) -> None:
     Call it at the top of a notebook so that readers and the test-suite see the same images.
     """
     headless()
-    import pyvista as pv
+    pv = require("pyvista", "opnet.plotting")
 
     pv.set_jupyter_backend("static")
     _store_renders_as_jpeg()
@@ -62,7 +63,7 @@ def _store_renders_as_jpeg() -> None:
 
 def to_pyvista(mesh):
     """A :class:`pyvista.PolyData` of a :class:`Mesh` or of a ``(vertices, faces)`` pair."""
-    import pyvista as pv
+    pv = require("pyvista", "opnet.plotting")
 
     v, f = (mesh.vertices, mesh.faces) if isinstance(mesh, Mesh) else mesh
     f = np.asarray(f)
@@ -96,7 +97,7 @@ def plot_meshes(
     ncols : subplots per row (default: all in one row).
     camera : str, a pyvista camera position such as ``"yz"`` or ``"xy"``.
     """
-    import pyvista as pv
+    pv = require("pyvista", "opnet.plotting")
 
     meshes = list(meshes)
     scalars = [None] * len(meshes) if scalars is None else list(scalars)
@@ -131,7 +132,7 @@ def plot_operators(operators, titles=None, *, vmax=None, cmap="RdBu_r", skip_con
     the constant function, on which a conformal or extrinsic ``D − I`` is ``−1`` and would otherwise swamp
     the rest of the map. When that clips entries, they saturate and the figure says so beneath the maps.
     """
-    import matplotlib.pyplot as plt
+    plt = require("matplotlib.pyplot", "opnet.plotting")
 
     operators = [np.asarray(D) for D in operators]
     titles = titles or [None] * len(operators)
@@ -355,7 +356,7 @@ def plot_history(histories: dict, *, ax=None):
 
     ``histories``: dict label → the history returned by :func:`opnet.train.fit`. Returns the figure.
     """
-    import matplotlib.pyplot as plt
+    plt = require("matplotlib.pyplot", "opnet.plotting")
 
     if ax is None:
         fig, ax = plt.subplots(figsize=(7, 3.6))
@@ -381,7 +382,7 @@ def plot_refinement_curves(curves: dict, *, axes=None):
     ``curves``: name → dict with ``step``, ``mismatch`` and ``d_R`` (equal-length sequences, e.g. the means over
     the shapes recorded by :func:`opnet.reconstruct`'s ``callback``). Returns the matplotlib figure.
     """
-    import matplotlib.pyplot as plt
+    plt = require("matplotlib.pyplot", "opnet.plotting")
 
     if axes is None:
         fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
@@ -399,7 +400,7 @@ def plot_refinement_curves(curves: dict, *, axes=None):
 
 def plot_ablation(table, rows, columns, *, title="d_R on test (×10⁻⁴)", ax=None):
     """Heat map of an ablation table ``(len(rows), len(columns))`` with its values written in the cells."""
-    import matplotlib.pyplot as plt
+    plt = require("matplotlib.pyplot", "opnet.plotting")
 
     table = np.asarray(table, dtype=float)
     if ax is None:

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ._checks import check_int
+from ._extras import require
 from ._files import atomic_write
 from .evaluate import (
     TEST_SETS,
@@ -327,7 +328,7 @@ def reproduce(
                 rows += evaluate(coll, [m], ("test",), extra=info)
         _write(out, rows, context, time.perf_counter() - t_start)
         if figures:
-            import matplotlib.pyplot as plt
+            plt = require("matplotlib.pyplot", "opnet.reproduce's figures")
 
             fig = _ablation_figure(rows)
             fig.savefig(out / "figures" / "ablation.png", dpi=120)
@@ -468,8 +469,8 @@ def discretisation_figure(mapped, nets: dict, shapes: int = 3):
     seconds each).
     """
     from .data import Collection
-    from .data.bodies import human_faces
     from .data.generators import generate_shapes
+    from .data.humans import human_faces
     from .matching import compute_map
     from .mesh import Mesh
     from .metrics import d_R
@@ -901,7 +902,7 @@ def _targets(t1: list[dict]) -> list[str]:
 
 def _figures(out: Path, coll, ours, nn, histories: dict) -> None:
     """Training curves, and reconstructions by ``ours`` and ``nn`` (:class:`Method`) coloured by error."""
-    import matplotlib.pyplot as plt
+    plt = require("matplotlib.pyplot", "opnet.reproduce's figures")
 
     from .plotting import headless, plot_history, plot_reconstructions
 
@@ -971,7 +972,7 @@ def _refinement_figures(out: Path, coll, net_method, budget: Budget, device) -> 
     """``refinement_curves.png`` (mismatch and d_R over the steps, from the base and from the network, on up to 8
     test shapes) and ``refinement_steps.png`` (one shape after 0, 10, 100... steps, coloured by error).
     """
-    import matplotlib.pyplot as plt
+    plt = require("matplotlib.pyplot", "opnet.reproduce's figures")
 
     from .plotting import headless, plot_reconstructions, plot_refinement_curves
 

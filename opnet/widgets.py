@@ -18,6 +18,8 @@ import os
 
 import numpy as np
 
+from ._extras import require
+
 __all__ = ["interactive", "show", "render_png", "interpolation_explorer", "analogy_explorer", "shape_labels"]
 
 
@@ -112,7 +114,7 @@ def interpolation_explorer(
     Returns an ``ipywidgets.VBox`` with attributes ``image`` (the current render, for :func:`show`) and
     ``titles`` (the captions of the shapes shown).
     """
-    import ipywidgets as w
+    w = require("ipywidgets", "opnet.widgets")
 
     shapes = shapes or _default_shapes(collection)
     labels = list(shapes)
@@ -170,7 +172,7 @@ def analogy_explorer(collection, methods, *, subjects=None, poses=None, camera="
     transfer). Returns an ``ipywidgets.VBox`` with attributes ``image`` (for :func:`show`), ``titles`` (the
     captions shown) and ``controls`` (the six dropdowns: A subject, A pose, B subject, ...).
     """
-    import ipywidgets as w
+    w = require("ipywidgets", "opnet.widgets")
 
     from .apps import _test_pool
     from .data.generators import generate_shapes

@@ -5,7 +5,8 @@ import pytest
 import trimesh
 
 import opnet
-from opnet.data import bodies
+from opnet.data import hands, heads
+from opnet.data.humans import ACTIONS
 
 # the fixtures `root` and `humans` (the quick humans, built once per test session) are in conftest.py
 
@@ -39,12 +40,13 @@ def test_operators_are_those_of_the_stored_base(humans):
 def test_paper_like_splits(humans):
     test_sc = set(humans.subcollection[humans.split == "test"])
     assert len(test_sc) == 10  # ten held-out (subject, motion) sequences, as the paper's DFAUST test set
-    assert all(sc.split("/")[1] in bodies.ACTIONS for sc in test_sc)
+    assert set(humans.params["motion"][humans.split == "test"]) <= set(ACTIONS)
     train_sc = set(humans.subcollection[humans.split == "train"])
     for held in ("val", "test", "test_subjects"):
         assert set(humans.subcollection[humans.split == held]).isdisjoint(train_sc)
-    unseen = {sc.split("/")[0] for sc in humans.subcollection[humans.split == "test_subjects"]}
-    assert unseen.isdisjoint({sc.split("/")[0] for sc in humans.subcollection[humans.split != "test_subjects"]})
+    unseen = set(humans.subjects("test_subjects"))
+    assert unseen.isdisjoint(humans.subject[humans.split != "test_subjects"])
+    assert all(sc.startswith(f"{s}/") for sc, s in zip(humans.subcollection, humans.subject))
     assert set(humans.split[humans.eval_subset]) == {"test"}
 
 
@@ -100,12 +102,12 @@ def test_unknown_names_and_presets(root):
 
 
 @pytest.mark.parametrize(
-    "name, n_vertices, motions", [("heads", 4200, bodies.HEAD_EXPRESSIONS), ("hands", 1609, bodies.HAND_GESTURES)]
+    "name, n_vertices, motions", [("heads", 4200, heads.HEAD_EXPRESSIONS), ("hands", 1609, hands.HAND_GESTURES)]
 )
 def test_part_collections(root, name, n_vertices, motions):
     coll = opnet.data.load_collection(name, "quick", root, progress=False)
     assert coll.vertices.shape[1:] == (n_vertices, 3) and coll.operators.shape[1:] == (3, 60, 60)
-    assert {sc.split("/")[1] for sc in coll.subcollection} == set(motions) | {"random"}
+    assert set(coll.params["motion"]) == set(motions) | {"random"}
     assert len(set(coll.subcollection[coll.split == "test"])) == 10
     for i in np.random.default_rng(0).choice(len(coll), 5, replace=False):
         coll.mesh(i)  # one component, manifold, no degenerate faces

@@ -96,7 +96,7 @@ def test_pointnet_trains_checkpoints_and_resumes_like_operatornet(coll, tmp_path
 def test_cli_trains_and_evaluates_the_pointnet_autoencoder(coll, tmp_path):
     from test_train import _cli
 
-    from opnet.data.collections import save_collection
+    from opnet.data import save_collection
 
     manifest = save_collection(coll, tmp_path / "data" / "tiny")
     run = tmp_path / "pn"

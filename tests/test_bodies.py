@@ -1,4 +1,5 @@
-"""Anny bodies, heads and hands (opnet.data.bodies): shapes, validity, motions, determinism."""
+"""Anny bodies, heads and hands (opnet.data.humans, heads, hands and anny_adapter): shapes, validity, motions,
+determinism, the adapter's version check and model cache."""
 
 import numpy as np
 import pytest
@@ -6,7 +7,8 @@ import torch
 import trimesh
 
 import opnet
-from opnet.data import bodies
+from opnet.data import anny_adapter, hands, heads, humans
+from opnet.data.subjects import AVERAGE_SUBJECT, PHENOTYPES, random_subjects
 
 N_BONES = 104
 
@@ -20,18 +22,18 @@ def rng():
 def sample():
     """Random subjects with a mix of action frames and random poses."""
     rng = np.random.default_rng(1)
-    poses = np.concatenate([bodies.action_poses(a, 8)[[2, 4]] for a in bodies.ACTIONS] + [bodies.random_poses(12, rng)])
-    return bodies.random_subjects(len(poses), rng), poses
+    poses = np.concatenate([humans.action_poses(a, 8)[[2, 4]] for a in humans.ACTIONS] + [humans.random_poses(12, rng)])
+    return random_subjects(len(poses), rng), poses
 
 
 def _world_joints(subjects, poses):
     """Posed joint positions ``(N, bones, 3)`` and bone rotations relative to the rest ``(N, bones, 3, 3)``."""
-    model = bodies.human_model("1k")
+    model = anny_adapter.human_model("1k")
     s = torch.from_numpy(subjects)
     with torch.no_grad():
         out = model(
             pose_parameters=torch.from_numpy(poses),
-            phenotype_kwargs={k: s[:, i] for i, k in enumerate(bodies.PHENOTYPES)},
+            phenotype_kwargs={k: s[:, i] for i, k in enumerate(PHENOTYPES)},
         )
     posed, rest = out["bone_poses"].numpy(), out["rest_bone_poses"].numpy()
     turn = posed[..., :3, :3] @ np.swapaxes(rest[..., :3, :3], -1, -2)
@@ -50,38 +52,38 @@ def _signed_flexion(joints, turns, labels, upper, lower, end, hinge):
 
 
 def test_shapes_and_dtypes(rng):
-    assert bodies.ACTIONS and len(bodies.ACTIONS) >= 10 and len(bodies.PHENOTYPES) == 6
-    P = bodies.action_poses("walk", 5)
+    assert humans.ACTIONS and len(humans.ACTIONS) >= 10 and len(PHENOTYPES) == 6
+    P = humans.action_poses("walk", 5)
     assert P.shape == (5, N_BONES, 4, 4) and P.dtype == np.float64
-    assert bodies.random_poses(3, rng).shape == (3, N_BONES, 4, 4)
-    assert np.array_equal(bodies.rest_pose(), np.broadcast_to(np.eye(4), (N_BONES, 4, 4)))
-    S = bodies.random_subjects(7, rng)
+    assert humans.random_poses(3, rng).shape == (3, N_BONES, 4, 4)
+    assert np.array_equal(humans.rest_pose(), np.broadcast_to(np.eye(4), (N_BONES, 4, 4)))
+    S = random_subjects(7, rng)
     assert S.shape == (7, 6) and S.dtype == np.float64 and S.min() >= 0 and S.max() <= 1
     for res, n in [("1k", 1229), ("2k", 2000), ("5k", 5000)]:
-        V = bodies.human_vertices(S[:2], P[:2], res)
-        f = bodies.human_faces(res)
+        V = humans.human_vertices(S[:2], P[:2], res)
+        f = humans.human_faces(res)
         assert V.shape == (2, n, 3) and V.dtype == np.float64
         assert f.dtype == np.int64 and f.shape[1] == 3 and f.max() == n - 1
     with pytest.raises(ValueError):
-        bodies.human_vertices(S[:2], P[:3])
+        humans.human_vertices(S[:2], P[:3])
     with pytest.raises(ValueError):
-        bodies.action_poses("moonwalk", 4)
+        humans.action_poses("moonwalk", 4)
     with pytest.raises(ValueError):
-        bodies.joint_poses({"knee_flex": 10})
+        humans.joint_poses({"knee_flex": 10})
 
 
 def test_subjects_are_adults(rng):
-    S = bodies.random_subjects(2000, rng)
-    age = S[:, bodies.PHENOTYPES.index("age")]
+    S = random_subjects(2000, rng)
+    age = S[:, PHENOTYPES.index("age")]
     assert 0.77 <= age.min() and age.max() <= 0.86  # 20 to 70 years on anny's age axis
     assert S[:, 0].std() > 0.25  # both genders and everything in between
-    heights = np.ptp(bodies.human_vertices(S[:200], np.repeat(bodies.rest_pose()[None], 200, 0))[..., 2], axis=1)
+    heights = np.ptp(humans.human_vertices(S[:200], np.repeat(humans.rest_pose()[None], 200, 0))[..., 2], axis=1)
     assert 1.35 < heights.min() and heights.max() < 2.1
 
 
 def test_poses_are_rotations(rng):
     P = np.concatenate(
-        [bodies.action_poses(a, 6, amplitude=1.5) for a in bodies.ACTIONS] + [bodies.random_poses(50, rng)]
+        [humans.action_poses(a, 6, amplitude=1.5) for a in humans.ACTIONS] + [humans.random_poses(50, rng)]
     )
     R = P[..., :3, :3]
     assert np.allclose(R @ np.swapaxes(R, -1, -2), np.eye(3), atol=1e-12)
@@ -91,44 +93,44 @@ def test_poses_are_rotations(rng):
 
 
 def test_angles_are_clipped_to_limits():
-    lo, hi = bodies.JOINT_LIMITS["knee_flex.L"]
-    over = bodies.joint_poses({"knee_flex.L": [hi + 50, hi]})
-    under = bodies.joint_poses({"knee_flex.L": [lo - 50, lo]})
+    lo, hi = humans.JOINT_LIMITS["knee_flex.L"]
+    over = humans.joint_poses({"knee_flex.L": [hi + 50, hi]})
+    under = humans.joint_poses({"knee_flex.L": [lo - 50, lo]})
     assert np.allclose(over[0], over[1]) and np.allclose(under[0], under[1])
 
 
 def test_actions_are_smooth_loops():
     n = 64
-    for action in bodies.ACTIONS:
-        P = bodies.action_poses(action, n)
+    for action in humans.ACTIONS:
+        P = humans.action_poses(action, n)
         R = P[:, :, :3, :3]
         step = np.einsum("fbji,fbjk->fbik", R, np.roll(R, -1, axis=0))  # frame k to k+1, and last to first
         angle = np.degrees(np.arccos(np.clip((np.trace(step, axis1=-2, axis2=-1) - 1) / 2, -1, 1)))
         assert angle.max() < 20, action
-        V = bodies.human_vertices(np.tile(bodies.AVERAGE_SUBJECT, (n, 1)), P)
+        V = humans.human_vertices(np.tile(AVERAGE_SUBJECT, (n, 1)), P)
         assert np.linalg.norm(np.diff(V, axis=0), axis=-1).max() < 0.15, action
         assert np.ptp(V, axis=0).max() > 0.05, action  # it does move
     one_shot = ("arm_raise", "knee_bend", "jumping_jacks", "punch", "one_leg_balance", "wave", "forward_bend", "kick")
     for action in one_shot:
-        assert np.allclose(bodies.action_poses(action, 10)[0], bodies.rest_pose()), action
-    assert np.allclose(bodies.action_poses("walk", 10, amplitude=0.0), bodies.rest_pose())
+        assert np.allclose(humans.action_poses(action, 10)[0], humans.rest_pose()), action
+    assert np.allclose(humans.action_poses("walk", 10, amplitude=0.0), humans.rest_pose())
 
 
 def test_meshes_valid_at_every_resolution(sample):
     S, P = sample
-    for res in bodies.RESOLUTIONS:
-        f = bodies.human_faces(res)
-        for v in bodies.human_vertices(S, P, res):
+    for res in humans.RESOLUTIONS:
+        f = humans.human_faces(res)
+        for v in humans.human_vertices(S, P, res):
             opnet.Mesh(v, f)  # raises on any defect
-        rest = bodies.human_vertices(np.array([bodies.AVERAGE_SUBJECT]), bodies.rest_pose()[None], res)[0]
+        rest = humans.human_vertices(np.array([AVERAGE_SUBJECT]), humans.rest_pose()[None], res)[0]
         mesh = trimesh.Trimesh(rest, f, process=False)
         assert mesh.is_watertight and len(mesh.split(only_watertight=False)) == 1
 
 
 def test_resolutions_agree(sample):
     S, P = sample
-    V = {res: bodies.human_vertices(S, P, res) for res in bodies.RESOLUTIONS}
-    F = {res: bodies.human_faces(res) for res in bodies.RESOLUTIONS}
+    V = {res: humans.human_vertices(S, P, res) for res in humans.RESOLUTIONS}
+    F = {res: humans.human_faces(res) for res in humans.RESOLUTIONS}
     area = {res: opnet.mesh.face_areas(V[res], F[res]).sum(-1) for res in V}
     for res in ("2k", "5k"):
         assert np.abs(area[res] / area["1k"] - 1).max() < 0.05
@@ -137,14 +139,14 @@ def test_resolutions_agree(sample):
 
 
 def test_knees_and_elbows_never_bend_backwards(rng):
-    overbent = bodies.joint_poses({"knee_flex.L": -90, "elbow_flex.R": -90})  # clipped to the limits
+    overbent = humans.joint_poses({"knee_flex.L": -90, "elbow_flex.R": -90})  # clipped to the limits
     poses = np.concatenate(
-        [bodies.action_poses(a, 16, amplitude=1.3) for a in bodies.ACTIONS] + [bodies.random_poses(200, rng), overbent]
+        [humans.action_poses(a, 16, amplitude=1.3) for a in humans.ACTIONS] + [humans.random_poses(200, rng), overbent]
     )
-    subjects = bodies.random_subjects(len(poses), rng)
+    subjects = random_subjects(len(poses), rng)
     joints, turns = _world_joints(subjects, poses)
-    labels = bodies.human_model("1k").bone_labels
-    elbow = np.array(bodies._LEFT_ELBOW_HINGE)
+    labels = anny_adapter.human_model("1k").bone_labels
+    elbow = np.array(humans._LEFT_ELBOW_HINGE)
     for side, mirror in (("L", np.array([1, 1, 1])), ("R", np.array([1, -1, -1]))):
         knee = _signed_flexion(
             joints, turns, labels, f"upperleg01.{side}", f"lowerleg01.{side}", f"foot.{side}", np.array([1.0, 0, 0])
@@ -162,9 +164,9 @@ def test_no_limb_through_the_body(rng):
     grazing a thigh, about 1 in 4000)."""
     from anny.utils.collision import SelfInterpenetrationModule
 
-    model = bodies.human_model("1k")
+    model = anny_adapter.human_model("1k")
     detector = SelfInterpenetrationModule(model)
-    faces = bodies.human_faces("1k")
+    faces = humans.human_faces("1k")
     weights, indices = model.vertex_bone_weights.numpy(), model.vertex_bone_indices.numpy()
     main_bone = indices[np.arange(len(indices)), weights.argmax(1)]
     finger = np.array(["finger" in label for label in model.bone_labels])[main_bone[faces[:, 0]]]
@@ -174,43 +176,43 @@ def test_no_limb_through_the_body(rng):
         bad = np.flatnonzero(hit >= 0)
         return not (finger[bad] & finger[hit[bad]]).all()
 
-    poses = np.concatenate([bodies.action_poses(a, 8) for a in bodies.ACTIONS])
-    subjects = bodies.random_subjects(len(poses), rng)
-    assert not any(intersects(v) for v in bodies.human_vertices(subjects, poses))
-    random = bodies.human_vertices(bodies.random_subjects(100, rng), bodies.random_poses(100, rng))
+    poses = np.concatenate([humans.action_poses(a, 8) for a in humans.ACTIONS])
+    subjects = random_subjects(len(poses), rng)
+    assert not any(intersects(v) for v in humans.human_vertices(subjects, poses))
+    random = humans.human_vertices(random_subjects(100, rng), humans.random_poses(100, rng))
     assert sum(intersects(v) for v in random) <= 2
 
 
 def test_deterministic():
-    S1, P1 = bodies.random_subjects(20, np.random.default_rng(5)), bodies.random_poses(20, np.random.default_rng(6))
-    S2, P2 = bodies.random_subjects(20, np.random.default_rng(5)), bodies.random_poses(20, np.random.default_rng(6))
+    S1, P1 = random_subjects(20, np.random.default_rng(5)), humans.random_poses(20, np.random.default_rng(6))
+    S2, P2 = random_subjects(20, np.random.default_rng(5)), humans.random_poses(20, np.random.default_rng(6))
     assert np.array_equal(S1, S2) and np.array_equal(P1, P2)
-    assert np.array_equal(bodies.human_vertices(S1, P1, "2k"), bodies.human_vertices(S2, P2, "2k"))
-    assert np.array_equal(bodies.action_poses("punch", 12), bodies.action_poses("punch", 12))
+    assert np.array_equal(humans.human_vertices(S1, P1, "2k"), humans.human_vertices(S2, P2, "2k"))
+    assert np.array_equal(humans.action_poses("punch", 12), humans.action_poses("punch", 12))
 
 
 # -- heads -------------------------------------------------------------------------------------
 
 
 def test_heads(rng):
-    assert tuple(bodies.head_model().facial_action_labels) == bodies.FACIAL_ACTIONS
-    assert len(bodies.HEAD_EXPRESSIONS) >= 8
-    f = bodies.head_faces()
-    seq = bodies.expression_sequence("smile", 8)
-    assert seq.shape == (8, len(bodies.FACIAL_ACTIONS)) and np.allclose(seq[0], 0)
-    assert np.isclose(seq[4].max(), 1.0) and np.all(np.diff(seq[:5, bodies.FACIAL_ACTIONS.index("mouthSmileLeft")]) > 0)
+    assert anny_adapter.facial_action_labels(anny_adapter.head_model()) == heads.FACIAL_ACTIONS
+    assert len(heads.HEAD_EXPRESSIONS) >= 8
+    f = heads.head_faces()
+    seq = heads.expression_sequence("smile", 8)
+    assert seq.shape == (8, len(heads.FACIAL_ACTIONS)) and np.allclose(seq[0], 0)
+    assert np.isclose(seq[4].max(), 1.0) and np.all(np.diff(seq[:5, heads.FACIAL_ACTIONS.index("mouthSmileLeft")]) > 0)
     W = np.concatenate(
         [
-            np.stack([bodies.expression_sequence(e, 2)[1] for e in bodies.HEAD_EXPRESSIONS]),
-            bodies.random_expressions(10, rng),
+            np.stack([heads.expression_sequence(e, 2)[1] for e in heads.HEAD_EXPRESSIONS]),
+            heads.random_expressions(10, rng),
         ]
     )
     assert W.min() >= 0 and W.max() <= 1
-    V = bodies.head_vertices(bodies.random_subjects(len(W), rng), W)
+    V = heads.head_vertices(random_subjects(len(W), rng), W)
     assert V.shape == (len(W), f.max() + 1, 3) and V.dtype == np.float64
     for v in V:
         opnet.Mesh(v, f)
-    neutral = bodies.head_vertices(np.array([bodies.AVERAGE_SUBJECT]), np.zeros((1, len(bodies.FACIAL_ACTIONS))))[0]
+    neutral = heads.head_vertices(np.array([AVERAGE_SUBJECT]), np.zeros((1, len(heads.FACIAL_ACTIONS))))[0]
     nose = neutral[neutral[:, 1].argmin()]
     assert nose[2] > 0.05 and neutral[:, 2].max() > 0.15  # upright, facing -y, neck joint at the origin
 
@@ -219,19 +221,67 @@ def test_heads(rng):
 
 
 def test_hands(rng):
-    assert len(bodies.HAND_GESTURES) >= 8
-    f = bodies.hand_faces()
-    seq = bodies.gesture_sequence("fist", 8)
+    assert len(hands.HAND_GESTURES) >= 8
+    f = hands.hand_faces()
+    seq = hands.gesture_sequence("fist", 8)
     assert seq.shape == (8, 21, 4, 4) and np.allclose(seq[0], np.eye(4))
     P = np.concatenate(
-        [np.stack([bodies.gesture_sequence(g, 2)[1] for g in bodies.HAND_GESTURES]), bodies.random_hand_poses(10, rng)]
+        [np.stack([hands.gesture_sequence(g, 2)[1] for g in hands.HAND_GESTURES]), hands.random_hand_poses(10, rng)]
     )
-    V = bodies.hand_vertices(bodies.random_subjects(len(P), rng), P)
+    V = hands.hand_vertices(random_subjects(len(P), rng), P)
     assert V.shape == (len(P), f.max() + 1, 3) and V.dtype == np.float64
     for v in V:
         opnet.Mesh(v, f)
-    rest = bodies.hand_vertices(np.array([bodies.AVERAGE_SUBJECT]), np.eye(4)[None, None].repeat(21, 1))[0]
+    rest = hands.hand_vertices(np.array([AVERAGE_SUBJECT]), np.eye(4)[None, None].repeat(21, 1))[0]
     tip = rest[np.linalg.norm(rest, axis=1).argmax()]
     assert tip[2] < -0.05 and tip[1] < -0.05  # hanging as in the A-pose: fingers down and forward
-    fist = bodies.hand_vertices(np.array([bodies.AVERAGE_SUBJECT]), bodies.gesture_sequence("fist", 2)[1:])[0]
+    fist = hands.hand_vertices(np.array([AVERAGE_SUBJECT]), hands.gesture_sequence("fist", 2)[1:])[0]
     assert np.linalg.norm(fist, axis=1).max() < 0.8 * np.linalg.norm(rest, axis=1).max()
+
+
+# -- the anny adapter --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("found", ["0.6.1", "0.7.0", "1.0"])
+def test_an_unsupported_anny_is_named_at_import(found):
+    with pytest.raises(ImportError, match=rf"need anny >=0\.6\.2,<0\.7.*but anny {found} is installed.*pip install"):
+        anny_adapter._check_anny_version(found)
+    for ok in ("0.6.2", "0.6.10", "0.6.3.dev1"):
+        anny_adapter._check_anny_version(ok)
+
+
+def test_editing_the_model_building_code_rebuilds_the_cached_model(tmp_path, monkeypatch):
+    """Anny caches the decimated bodies' model data under a key of the builder's arguments; the key includes a
+    digest of opnet's building code, so an edited builder is run again instead of answered from the old cache."""
+    from anny.models.model_data import ModelData
+    from anny.paths import get_anny_cache_path
+
+    anny_adapter.human_model("1k")  # anny's own cache holds model data from here on
+    stored = next(get_anny_cache_path().rglob("*.safetensors"))
+    data = ModelData.load_safetensors(stored)
+    monkeypatch.setattr("anny.paths._ANNY_CACHE_DIR", [tmp_path])
+    runs = []
+
+    def first(n_vertices, code_version):
+        runs.append("first")
+        return data
+
+    def edited(n_vertices, code_version):
+        runs.append("edited")  # the same function, edited
+        return data
+
+    for build in (first, edited):
+        build.__name__ = "_decimated_notoes_model_data"
+    monkeypatch.setattr(anny_adapter, "_decimated_notoes_model_data", first)
+    anny_adapter._decimated_model_data(2000)
+    anny_adapter._decimated_model_data(2000)
+    assert runs == ["first"]  # the second call was answered from the cache
+    monkeypatch.setattr(anny_adapter, "_decimated_notoes_model_data", edited)
+    anny_adapter._decimated_model_data(2000)
+    assert runs == ["first", "edited"]
+    assert anny_adapter.model_code_version(first) != anny_adapter.model_code_version(edited)
+    assert len(list(tmp_path.rglob("_decimated_notoes_model_data_*.safetensors"))) == 2
+
+
+def test_the_adapter_lists_the_human_resolutions():
+    assert set(anny_adapter.RESOLUTIONS) == set(humans.RESOLUTIONS)

@@ -14,7 +14,7 @@ import trimesh
 
 import opnet
 from opnet.data import CollectionError, toy
-from opnet.data.collections import assemble
+from opnet.data.build import assemble
 
 
 def toy_collection(seed=0, n_subjects=4, groups=("bend", "bulge", "both"), frames=3):
@@ -35,10 +35,11 @@ def toy_collection(seed=0, n_subjects=4, groups=("bend", "bulge", "both"), frame
                 grp.append(g)
     subj, grp = np.array(subj), np.array(grp)
     split = opnet.data.make_splits(subj, grp, rng, n_test_subcollections=2, n_test_subjects=1, n_val_subcollections=1)
-    sub = np.array([f"subject{s:02d}/{g}" for s, g in zip(subj, grp)])
+    names = np.array([f"subject{s:02d}" for s in subj])
+    sub = np.array([f"{name}/{g}" for name, g in zip(names, grp)])
     meta = dict(name="toy", preset="quick", resolution="quick", seed=seed, generator_version="test")
     return assemble(
-        np.stack(V), base.faces, base.vertices, split, sub, {"subject": subj}, meta, k=20, progress=False, n_eval=2
+        np.stack(V), base.faces, base.vertices, split, sub, names, {"group": grp}, meta, k=20, progress=False, n_eval=2
     )
 
 
@@ -61,8 +62,8 @@ def test_splits_hold_out_whole_subcollections_and_subjects(coll):
     for held in ("test", "val", "test_subjects"):
         held_sc = set(coll.subcollection[coll.split == held])
         assert held_sc.isdisjoint(coll.subcollection[coll.split == "train"])
-    unseen = {s.split("/")[0] for s in coll.subcollection[coll.split == "test_subjects"]}
-    seen = {s.split("/")[0] for s in coll.subcollection[coll.split != "test_subjects"]}
+    unseen = set(coll.subjects("test_subjects"))
+    seen = set(coll.subject[coll.split != "test_subjects"])
     assert unseen and unseen.isdisjoint(seen)
     assert len(set(coll.subcollection[coll.split == "test"])) == 2
 
@@ -85,7 +86,8 @@ def test_save_and_read_round_trip(coll, tmp_path):
     np.testing.assert_array_equal(back.operators, coll.operators)
     np.testing.assert_array_equal(back.split, coll.split)
     np.testing.assert_array_equal(back.base_basis.evecs, coll.base_basis.evecs)
-    np.testing.assert_array_equal(back.params["subject"], coll.params["subject"])
+    np.testing.assert_array_equal(back.subject, coll.subject)
+    np.testing.assert_array_equal(back.params["group"], coll.params["group"])
     manifest = json.loads(path.read_text())
     assert manifest["shapes"]["operators"] == list(coll.operators.shape)
     assert (tmp_path / manifest["data"]).is_file() and manifest["data"].startswith("toy.")
@@ -256,13 +258,13 @@ def test_user_folder_oddities(tmp_path):
 def test_an_unusable_data_root_is_found_before_building(coll, tmp_path, monkeypatch):
     """A data root that is a file, inside a file, or on a full disk is refused before the (minutes long) build;
     a save that fails after the build returns the built collection with a warning instead of losing it."""
-    from opnet.data import collections, generators
+    from opnet.data import generators, storage
 
     built = []
 
     def fake_generate(preset, resolution, seed, meta, progress=None):
         built.append(preset)
-        return collections.Collection(
+        return storage.Collection(
             **{
                 f: getattr(coll, f)
                 for f in (
@@ -271,6 +273,7 @@ def test_an_unusable_data_root_is_found_before_building(coll, tmp_path, monkeypa
                     "operators",
                     "split",
                     "subcollection",
+                    "subject",
                     "base_basis",
                     "eval_subset",
                     "params",
@@ -285,7 +288,7 @@ def test_an_unusable_data_root_is_found_before_building(coll, tmp_path, monkeypa
     for root in (a_file, a_file / "inside"):
         with pytest.raises(CollectionError, match="data root.*OPNET_DATA_DIR"):
             opnet.data.load_collection("humans", "quick", root)
-    monkeypatch.setattr(collections.shutil, "disk_usage", lambda p: collections.shutil._ntuple_diskusage(1, 1, 0))
+    monkeypatch.setattr(storage.shutil, "disk_usage", lambda p: storage.shutil._ntuple_diskusage(1, 1, 0))
     with pytest.raises(CollectionError, match="free"):
         opnet.data.load_collection("humans", "quick", tmp_path / "full")
     assert built == []  # refused before building
@@ -295,7 +298,7 @@ def test_an_unusable_data_root_is_found_before_building(coll, tmp_path, monkeypa
     def no_space(*args, **kwargs):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(collections, "save_collection", no_space)
+    monkeypatch.setattr(storage, "save_collection", no_space)
     with pytest.warns(UserWarning, match="could not be saved.*No space left"):
         got = opnet.data.load_collection("humans", "quick", tmp_path / "ok")
     assert built == ["quick"] and len(got) == len(coll)

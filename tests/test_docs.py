@@ -15,8 +15,8 @@ import pytest
 import trimesh
 
 from opnet.__main__ import _parser
-from opnet.data import bodies
 from opnet.data.generators import generate_shapes
+from opnet.data.humans import human_faces
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCUMENTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
@@ -58,7 +58,7 @@ def reader_folder(tmp_path, monkeypatch, humans, root):
     monkeypatch.setenv("OPNET_DATA_DIR", str(root))
     i = int(humans.indices("test")[0])
     body = generate_shapes(humans, humans.params["phenotypes"][[i]], humans.params["controls"][[i]], resolution="2k")
-    trimesh.Trimesh(body[0], bodies.human_faces("2k"), process=False).export(tmp_path / "body.ply")
+    trimesh.Trimesh(body[0], human_faces("2k"), process=False).export(tmp_path / "body.ply")
     folder = tmp_path / "my_registrations"
     folder.mkdir()
     for j in humans.indices("train")[:4]:

@@ -41,12 +41,12 @@ def test_a_failed_save_keeps_the_built_operators(few, tmp_path, monkeypatch):
     """When the final save fails (e.g. the disk filled up), the collection is returned with a warning and the
     parts stay, so the next call assembles them without recomputing a map."""
     from opnet import matching
-    from opnet.data import collections
+    from opnet.data import storage
 
     def no_space(*args, **kwargs):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(collections, "save_collection", no_space)
+    monkeypatch.setattr(storage, "save_collection", no_space)
     with pytest.warns(UserWarning, match="could not be saved.*No space left"):
         first = mapped_collection(few, "1k", "true", root=tmp_path, n_jobs=1, chunk=4, progress=False)
     assert list(tmp_path.glob("*.part-*.npz"))

@@ -9,8 +9,8 @@ import trimesh
 
 import opnet
 from opnet import matching
-from opnet.data import bodies
 from opnet.data.generators import generate_shapes, resolution_map
+from opnet.data.humans import human_faces
 from opnet.inner_products import INNER_PRODUCTS
 
 
@@ -84,7 +84,7 @@ def bodies_2k(humans):
     """The base body at 2k vertices (another triangulation of the 1k base), and one posed test body at 2k."""
     i = humans.indices("test")[0]
     posed = generate_shapes(humans, humans.params["phenotypes"][[i]], humans.params["controls"][[i]], resolution="2k")
-    return opnet.Mesh(posed[0], bodies.human_faces("2k")), resolution_map(humans, "2k"), i
+    return opnet.Mesh(posed[0], human_faces("2k")), resolution_map(humans, "2k"), i
 
 
 def test_computed_map_of_a_posed_2k_body_is_right_and_not_mirrored(humans, bodies_2k):

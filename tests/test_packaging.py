@@ -76,3 +76,29 @@ def test_a_missing_extra_is_named():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert "pip install 'opnet[net]'" in out
+
+
+def test_functions_that_import_an_extra_name_it():
+    """Functions importing an optional package where they use it (anny, pyvista, matplotlib, pyFM) say which
+    extra brings it when it is missing, as do the others that go through ``opnet._extras.require``."""
+    code = (
+        "import sys\n"
+        "for name in ('anny', 'pyvista', 'matplotlib', 'pyFM', 'ipywidgets', 'joblib'):\n"
+        "    sys.modules[name] = None\n"  # as if not installed
+        "import numpy as np, opnet, opnet.matching, opnet.plotting\n"
+        "from opnet._extras import EXTRAS, require\n"
+        "base, target = opnet.data.toy.finger_pair('quick')\n"
+        "calls = [\n"
+        "    lambda: opnet.data.humans.human_faces(),\n"
+        "    lambda: opnet.plotting.to_pyvista(base),\n"
+        "    lambda: opnet.plotting.plot_operators([np.eye(3)]),\n"
+        "    lambda: opnet.matching.compute_map(opnet.eigenbasis(base, 10), target, k=10, k_init=5),\n"
+        "] + [lambda name=name: require(name, 'a test') for name in EXTRAS if name != 'torch']\n"
+        "for call in calls:\n"
+        "    try:\n        call()\n    except ImportError as e:\n        print(e)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
+    expected = ["data", "viz", "viz", "maps", "data", "data", "maps", "viz", "viz", "viz"]
+    assert len(out) == len(expected), out
+    for line, extra in zip(out, expected):
+        assert f"pip install 'opnet[{extra}]'" in line, line

@@ -13,8 +13,8 @@ import torch
 
 import opnet
 from opnet import train
-from opnet.data import toy
-from opnet.data.collections import assemble, save_collection
+from opnet.data import save_collection, toy
+from opnet.data.build import assemble
 
 FAST = dict(hidden=64, batch_size=8, lr=1e-3, progress=False)
 
@@ -28,7 +28,7 @@ def tiny_collection(name="tiny", n=40, seed=0):
     split = np.array(["train"] * (n - 12) + ["val"] * 4 + ["test"] * 4 + ["test_subjects"] * 4)
     sub = np.array([f"s{i // 4}" for i in range(n)])
     meta = dict(name=name, preset="tiny", resolution="430", seed=seed, generator_version="test")
-    return assemble(V, base.faces, base.vertices, split, sub, {"angle": angles}, meta, k=20, progress=False)
+    return assemble(V, base.faces, base.vertices, split, sub, sub, {"angle": angles}, meta, k=20, progress=False)
 
 
 @pytest.fixture(scope="module")

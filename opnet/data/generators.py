@@ -8,15 +8,20 @@ Heads and hands play the subjects' expressions and gestures as the humans play m
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from . import bodies
-from .collections import assemble
+from . import hands, heads, humans
+from .build import assemble
 from .splits import make_splits
+from .storage import _BYTES_PER_SHAPE, Collection, check_root, default_root, read_collection, save_or_warn
+from .subjects import AVERAGE_SUBJECT, PHENOTYPES, random_subjects
 
 __all__ = [
+    "load_collection",
     "PRESETS",
     "GENERATORS",
     "MOTIONS",
@@ -48,7 +53,9 @@ PRESETS = {
 
 
 def _design(preset: Preset, motions, rng: np.random.Generator):
-    """Per-shape subject index, motion name and frame index: every subject performs every motion, plus random poses."""
+    """Per-shape subject index, motion name, frame index, split, sub-collection and subject name: every subject
+    performs every motion, plus random poses.
+    """
     subject, motion, frame = [], [], []
     for s in range(preset.subjects):
         for m in motions:
@@ -67,8 +74,9 @@ def _design(preset: Preset, motions, rng: np.random.Generator):
         n_val_subcollections=preset.val_subcollections,
         held_out_groups={"random"},
     )
-    sub = np.array([f"subject{s:02d}/{m}" for s, m in zip(subject, motion)])
-    return subject, motion, frame, split, sub
+    names = np.array([f"subject{s:02d}" for s in subject])
+    sub = np.array([f"{name}/{m}" for name, m in zip(names, motion)])
+    return subject, motion, frame, split, sub, names
 
 
 def _build(
@@ -81,8 +89,8 @@ def _build(
     """
     p = PRESETS[preset]
     rng = np.random.default_rng(seed)
-    subjects = bodies.random_subjects(p.subjects, rng)
-    subject, motion, frame, split, sub = _design(p, motions, rng)
+    subjects = random_subjects(p.subjects, rng)
+    subject, motion, frame, split, sub, names = _design(p, motions, rng)
     amplitude = rng.uniform(0.7, 1.0, p.subjects)  # each person moves a little differently...
     offset = rng.uniform(0.05, 0.45, (p.subjects, len(motions)))  # ...and is caught at other instants
     controls = np.empty((len(subject), *rest.shape))
@@ -93,21 +101,23 @@ def _build(
             )
         controls[(subject == s) & (motion == "random")] = random(p.random, rng)
     vertices = evaluate(subjects[subject], controls)
-    base = evaluate(np.array([bodies.AVERAGE_SUBJECT]), rest[None])[0]
+    base = evaluate(np.array([AVERAGE_SUBJECT]), rest[None])[0]
     params = dict(phenotypes=subjects[subject], motion=motion, frame=frame, controls=controls.astype(np.float32))
     fps_vertices = None if reference is None else reference(subjects[subject], controls)
-    return assemble(vertices, faces, base, split, sub, params, meta, progress=progress, fps_vertices=fps_vertices)
+    return assemble(
+        vertices, faces, base, split, sub, names, params, meta, progress=progress, fps_vertices=fps_vertices
+    )
 
 
 def _evaluator(name: str, resolution: str):
     """``evaluate(subjects (N, 6), controls (N, ...)) → vertices (N, n, 3)`` of a named collection."""
     if name == "humans":
-        return lambda subj, poses: bodies.human_vertices(subj, poses, resolution)
-    return {"heads": bodies.head_vertices, "hands": bodies.hand_vertices}[name]
+        return lambda subj, poses: humans.human_vertices(subj, poses, resolution)
+    return {"heads": heads.head_vertices, "hands": hands.hand_vertices}[name]
 
 
 #: name -> the motion sequences every subject performs (body actions, facial expressions, hand gestures)
-MOTIONS = {"humans": bodies.ACTIONS, "heads": tuple(bodies.HEAD_EXPRESSIONS), "hands": tuple(bodies.HAND_GESTURES)}
+MOTIONS = {"humans": humans.ACTIONS, "heads": tuple(heads.HEAD_EXPRESSIONS), "hands": tuple(hands.HAND_GESTURES)}
 
 
 def shape_count(name: str, preset: str) -> int:
@@ -124,11 +134,11 @@ def _humans(preset, resolution, seed, meta, progress=None):
         meta,
         progress,
         motions=MOTIONS["humans"],
-        sequence=bodies.action_poses,
-        random=bodies.random_poses,
+        sequence=humans.action_poses,
+        random=humans.random_poses,
         evaluate=_evaluator("humans", resolution),
-        rest=bodies.rest_pose(),
-        faces=bodies.human_faces(resolution),
+        rest=humans.rest_pose(),
+        faces=humans.human_faces(resolution),
         reference=one_k,
     )
 
@@ -140,11 +150,11 @@ def _heads(preset, resolution, seed, meta, progress=None):
         meta,
         progress,
         motions=MOTIONS["heads"],
-        sequence=bodies.expression_sequence,
-        random=bodies.random_expressions,
+        sequence=heads.expression_sequence,
+        random=heads.random_expressions,
         evaluate=_evaluator("heads", resolution),
-        rest=np.zeros(len(bodies.FACIAL_ACTIONS)),
-        faces=bodies.head_faces(),
+        rest=np.zeros(len(heads.FACIAL_ACTIONS)),
+        faces=heads.head_faces(),
     )
 
 
@@ -155,17 +165,17 @@ def _hands(preset, resolution, seed, meta, progress=None):
         meta,
         progress,
         motions=MOTIONS["hands"],
-        sequence=bodies.gesture_sequence,
-        random=bodies.random_hand_poses,
+        sequence=hands.gesture_sequence,
+        random=hands.random_hand_poses,
         evaluate=_evaluator("hands", resolution),
-        rest=bodies.hand_poses({}, 1)[0],
-        faces=bodies.hand_faces(),
+        rest=hands.hand_poses({}, 1)[0],
+        faces=hands.hand_faces(),
     )
 
 
 #: name -> (generator, resolutions it offers; the first is the default)
 GENERATORS = {
-    "humans": (_humans, tuple(bodies.RESOLUTIONS)),
+    "humans": (_humans, humans.RESOLUTIONS),
     "heads": (_heads, ("native",)),
     "hands": (_hands, ("native",)),
 }
@@ -184,8 +194,8 @@ def _generated(collection) -> str:
 def generate_shapes(collection, phenotypes, controls, *, resolution: str | None = None) -> np.ndarray:
     """New shapes of a generated collection's kind, on its mesh: vertices ``(N, n, 3)`` float64 (metres).
 
-    ``resolution`` (humans: a key of :data:`opnet.data.bodies.RESOLUTIONS`) gives the same shapes on another
-    triangulation instead, whose faces are ``bodies.human_faces(resolution)``: the 2k and 5k meshes that
+    ``resolution`` (humans: a key of :data:`opnet.data.humans.RESOLUTIONS`) gives the same shapes on another
+    triangulation instead, whose faces are ``humans.human_faces(resolution)``: the 2k and 5k meshes that
     :mod:`opnet.matching` maps onto a 1k base. ``phenotypes`` ``(N, 6)`` and ``controls`` ``(N, ...)`` are
     generator parameters like the collection's own
     ``params["phenotypes"]`` and ``params["controls"]`` (body or hand poses ``(bones, 4, 4)``, or facial
@@ -197,14 +207,14 @@ def generate_shapes(collection, phenotypes, controls, *, resolution: str | None 
     expected = collection.params["controls"].shape[1:]
     if phenotypes.ndim != 2 or controls.shape[1:] != expected or len(controls) != len(phenotypes):
         raise ValueError(
-            f"phenotypes must be (N, {len(bodies.PHENOTYPES)}) and controls (N, {', '.join(map(str, expected))}) "
+            f"phenotypes must be (N, {len(PHENOTYPES)}) and controls (N, {', '.join(map(str, expected))}) "
             f"with the same N, got {phenotypes.shape} and {controls.shape}."
         )
     if resolution is None:
         resolution = collection.meta.get("resolution")
-    elif name != "humans" or resolution not in bodies.RESOLUTIONS:
+    elif name != "humans" or resolution not in humans.RESOLUTIONS:
         raise ValueError(
-            f"resolution applies to the humans, one of {list(bodies.RESOLUTIONS)}; got {resolution!r} for the {name}."
+            f"resolution applies to the humans, one of {list(humans.RESOLUTIONS)}; got {resolution!r} for the {name}."
         )
     return _evaluator(name, resolution)(phenotypes, controls)
 
@@ -218,10 +228,8 @@ def resolution_map(collection, resolution: str):
     from ..matching import closest_point_map
     from ..mesh import Mesh
 
-    rest = generate_shapes(
-        collection, np.array([bodies.AVERAGE_SUBJECT]), bodies.rest_pose()[None], resolution=resolution
-    )[0]
-    return closest_point_map(collection.base_basis, Mesh(rest, bodies.human_faces(resolution))).to_base
+    rest = generate_shapes(collection, np.array([AVERAGE_SUBJECT]), humans.rest_pose()[None], resolution=resolution)[0]
+    return closest_point_map(collection.base_basis, Mesh(rest, humans.human_faces(resolution))).to_base
 
 
 def interpolate_controls(collection, c0, c1, t) -> np.ndarray:
@@ -244,3 +252,52 @@ def interpolate_controls(collection, c0, c1, t) -> np.ndarray:
         out[i, :, :3, :3] = (r0 * Rotation.from_rotvec(s * step)).as_matrix()
         out[i, :, :3, 3] = (1 - s) * c0[:, :3, 3] + s * c1[:, :3, 3]
     return out
+
+
+def _stem_name(meta: dict) -> str:
+    """The file name (without extensions) of a generated collection: ``<name>-<preset>-<resolution>-seed<seed>-v<N>``.
+    The generator version is part of it: after an upgrade that changes the data, the collection is rebuilt.
+    """
+    return f"{meta['name']}-{meta['preset']}-{meta['resolution']}-seed{meta['seed']}-v{meta['generator_version']}"
+
+
+def load_collection(
+    name: str,
+    preset: str = "quick",
+    root=None,
+    *,
+    resolution: str | None = None,
+    seed: int = 0,
+    rebuild: bool = False,
+    progress: bool | None = None,
+) -> Collection:
+    """The collection ``name`` (``"humans"``, ``"heads"`` or ``"hands"``) at ``preset``, built if missing.
+
+    ``preset`` is ``"quick"`` (a few hundred shapes, for tests), ``"default"`` (several thousand, minutes on a
+    laptop CPU) or ``"paper"`` (≈17 000 training shapes like the paper's). ``resolution`` (humans only) picks
+    the ``"1k"`` (default), ``"2k"`` or ``"5k"``-vertex version of the same shapes. A cached file is reused when
+    its parameters match; a corrupt or mismatched one raises :class:`CollectionError` naming the fix (``rebuild=True``).
+    """
+    if name not in GENERATORS:
+        raise ValueError(
+            f"unknown collection {name!r}; use one of {sorted(GENERATORS)} (or load_folder for your own meshes)."
+        )
+    if preset not in PRESETS:
+        raise ValueError(f"unknown preset {preset!r}; use one of {list(PRESETS)}.")
+    generate, resolutions = GENERATORS[name]
+    resolution = resolutions[0] if resolution is None else resolution
+    if resolution not in resolutions:
+        raise ValueError(f"the {name} collection comes in resolutions {list(resolutions)}, not {resolution!r}.")
+    try:
+        seed = operator.index(seed)
+    except TypeError:
+        raise ValueError(f"seed must be an integer, got {seed!r}.") from None
+    root = Path(root) if root is not None else default_root()
+    meta = dict(name=name, preset=preset, resolution=resolution, seed=seed, generator_version=GENERATOR_VERSION)
+    stem = root / _stem_name(meta)
+    if not rebuild and stem.with_name(stem.name + ".json").is_file():
+        return read_collection(stem, expected_meta=meta)
+    check_root(root, shape_count(name, preset) * _BYTES_PER_SHAPE)
+    coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress)
+    save_or_warn(coll, stem)
+    return coll

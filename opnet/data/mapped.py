@@ -31,12 +31,14 @@ from pathlib import Path
 import numpy as np
 
 from .._checks import check_int, is_integer
+from .._extras import require
 from .._files import atomic_write, remove_stale_tmp
-from .collections import (
+from . import humans
+from .generators import _generated, _stem_name, generate_shapes, resolution_map
+from .storage import (
     _BYTES_PER_SHAPE,
     Collection,
     CollectionError,
-    _stem_name,
     check_root,
     default_root,
     read_collection,
@@ -73,7 +75,7 @@ def mapped_collection(
     collection : Collection
         A generated humans collection (:func:`opnet.data.load_collection`), whose base is the 1k mesh.
     resolution : str
-        The other triangulation: a key of :data:`opnet.data.bodies.RESOLUTIONS` (``"2k"``, ``"5k"``).
+        The other triangulation: a key of :data:`opnet.data.humans.RESOLUTIONS` (``"2k"``, ``"5k"``).
     maps : str
         ``"computed"`` or ``"true"`` (see the module docstring).
     indices : array of int, optional
@@ -96,9 +98,6 @@ def mapped_collection(
     Collection
         With ``meta`` gaining ``maps``, ``map_resolution``, ``map_k`` and ``source`` (the source's name).
     """
-    from . import bodies
-    from .generators import _generated
-
     if not isinstance(collection, Collection):
         raise TypeError(f"collection must be an opnet.data.Collection, got {type(collection).__name__}.")
     if _generated(collection) != "humans" or collection.meta.get("resolution") != "1k":
@@ -106,8 +105,8 @@ def mapped_collection(
             "mapped collections are made from the generated 1k humans "
             "(opnet.data.load_collection('humans', preset)): they alone come in other triangulations."
         )
-    if resolution not in bodies.RESOLUTIONS:
-        raise ValueError(f"resolution must be one of {list(bodies.RESOLUTIONS)}, got {resolution!r}.")
+    if resolution not in humans.RESOLUTIONS:
+        raise ValueError(f"resolution must be one of {list(humans.RESOLUTIONS)}, got {resolution!r}.")
     if maps not in MAPS:
         raise ValueError(f"maps must be one of {MAPS}, got {maps!r}.")
     check_int("chunk", chunk)
@@ -169,12 +168,10 @@ def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int,
     """Per chunk of shapes ``(operators, map_error, coverage, orientation)``, read from finished parts or computed
     (in ``n_jobs`` processes) and stored as parts.
     """
-    from joblib import Parallel, delayed
+    joblib = require("joblib", "opnet.data.mapped_collection")
     from tqdm.auto import tqdm
 
     from ..spectral import eigenbasis
-    from . import bodies
-    from .generators import generate_shapes, resolution_map
 
     starts = range(0, len(source), chunk)
     paths = {s: stem.with_name(f"{stem.name}.part-{s:07d}-{min(s + chunk, len(source)):07d}.npz") for s in starts}
@@ -195,7 +192,7 @@ def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int,
         disable=progress is False or (progress is None and len(todo) < 2),
     )
     true_to_base = resolution_map(source, resolution)
-    faces = bodies.human_faces(resolution)
+    faces = humans.human_faces(resolution)
     spectrum = eigenbasis(source.base_basis.mesh, k) if maps == "computed" else None  # the base's, once
 
     def task(s):
@@ -203,9 +200,9 @@ def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int,
         vertices = generate_shapes(
             source, source.params["phenotypes"][sl], source.params["controls"][sl], resolution=resolution
         )
-        return delayed(_map_chunk)(source.base_basis, spectrum, vertices, faces, true_to_base)
+        return joblib.delayed(_map_chunk)(source.base_basis, spectrum, vertices, faces, true_to_base)
 
-    with Parallel(n_jobs=n_jobs, return_as="generator") as parallel:
+    with joblib.Parallel(n_jobs=n_jobs, return_as="generator") as parallel:
         for s, result in zip(todo, parallel(task(s) for s in todo)):
             atomic_write(paths[s], lambda f, r=result: np.savez(f, **dict(zip(_FIELDS, r))))
             done[s] = result

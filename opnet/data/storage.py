@@ -1,14 +1,15 @@
-"""Shape collections on disk: one documented format, written atomically, checked on load.
+"""Shape collections in memory (:class:`Collection`) and on disk: one documented format, written atomically,
+checked on load.
 
 A collection is a set of meshes in 1-1 correspondence (shared faces) with, for every
 shape, its three shape differences against a fixed base shape (fast path, ``k`` = 60 on
-the base by default), its split label, its sub-collection and the parameters it was
+the base by default), its split label, its sub-collection, its subject and the parameters it was
 generated from. On disk, a collection stored under the path ``stem`` is two files:
 
 ``stem.<sha>.npz`` (``<sha>``: the first 12 hex digits of its SHA-256)
     ``vertices`` (N, n, 3) float32 (metres for the body models), ``faces`` (m, 3) int64,
     ``operators`` (N, 3, k, k) float32 (channels: area, conformal, extrinsic),
-    ``split`` (N,) str, ``subcollection`` (N,) str, ``base_vertices`` (n, 3) float64,
+    ``split`` (N,) str, ``subcollection`` (N,) str, ``subject`` (N,) str, ``base_vertices`` (n, 3) float64,
     ``base_evals`` (k,), ``base_evecs`` (n, k), ``base_mass`` (n,) float64 (the base
     eigenbasis every consumer must use), ``eval_subset`` (indices of the evaluation
     subset), and ``param_<name>`` arrays (N, ...) of per-shape parameters.
@@ -27,7 +28,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import operator
 import os
 import re
 import shutil
@@ -39,15 +39,13 @@ from pathlib import Path
 import numpy as np
 
 from .._files import remove_stale_tmp, tmp_name
-from ..mesh import Mesh, MeshError
-from ..shape_difference import KINDS, shape_differences
-from ..spectral import Eigenbasis, eigenbasis
+from ..mesh import Mesh
+from ..shape_difference import KINDS
+from ..spectral import Eigenbasis
 
 __all__ = [
     "Collection",
     "CollectionError",
-    "load_collection",
-    "load_folder",
     "save_collection",
     "read_collection",
     "default_root",
@@ -55,7 +53,7 @@ __all__ = [
     "SPLITS",
 ]
 
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3  # 3: the per-shape subject
 SPLITS = ("train", "val", "test", "test_subjects")
 
 
@@ -65,13 +63,19 @@ class CollectionError(RuntimeError):
 
 @dataclass(eq=False)
 class Collection:
-    """Shapes in correspondence with their shape differences (see the module docstring for the fields)."""
+    """Shapes in correspondence with their shape differences (see the module docstring for the fields).
+
+    ``subcollection`` (N,) names each shape's sequence (for a generated collection ``"subject03/walk"``: one
+    subject's motion), the unit that splits hold out whole; ``subject`` (N,) names the person (``"subject03"``),
+    the unit of the ``test_subjects`` split. For a folder of your own meshes both come from ``splits.csv``.
+    """
 
     vertices: np.ndarray
     faces: np.ndarray
     operators: np.ndarray
     split: np.ndarray
     subcollection: np.ndarray
+    subject: np.ndarray
     base_basis: Eigenbasis
     eval_subset: np.ndarray
     params: dict = field(default_factory=dict)
@@ -85,6 +89,24 @@ class Collection:
         if split not in SPLITS:
             raise ValueError(f"unknown split {split!r}; use one of {SPLITS}.")
         return np.flatnonzero(self.split == split)
+
+    def sequence(self, subject: str, motion: str | None = None) -> np.ndarray:
+        """Indices of one subject's shapes, in stored (frame) order; with ``motion``, only those of its
+        sub-collection ``"<subject>/<motion>"`` (how the generated collections name a subject's sequence).
+        """
+        mask = self.subject == subject
+        if not mask.any():
+            raise ValueError(f"no subject {subject!r} in this collection; it has {self.subjects()}.")
+        if motion is not None:
+            mask &= self.subcollection == f"{subject}/{motion}"
+            if not mask.any():
+                raise ValueError(f"subject {subject!r} has no sequence {subject}/{motion}.")
+        return np.flatnonzero(mask)
+
+    def subjects(self, split: str | None = None) -> list[str]:
+        """The subjects (sorted), all or those with shapes in one split."""
+        idx = slice(None) if split is None else self.indices(split)
+        return sorted(set(self.subject[idx].tolist()))
 
     def mesh(self, i: int) -> Mesh:
         """Shape ``i`` as a :class:`opnet.Mesh` (float64)."""
@@ -113,6 +135,7 @@ class Collection:
             self.operators[idx],
             self.split[idx],
             self.subcollection[idx],
+            self.subject[idx],
             self.base_basis,
             eval_subset,
             {k: v[idx] for k, v in self.params.items()},
@@ -169,6 +192,7 @@ def save_collection(coll: Collection, path) -> Path:
         operators=coll.operators.astype(np.float32),
         split=coll.split.astype(str),
         subcollection=coll.subcollection.astype(str),
+        subject=coll.subject.astype(str),
         base_vertices=coll.base_basis.mesh.vertices,
         base_evals=coll.base_basis.evals,
         base_evecs=coll.base_basis.evecs,
@@ -269,7 +293,7 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
             f"({type(exc).__name__}: {str(exc)[:200]}); {fix}."
         ) from None
     params = {k[len("param_") :]: data.pop(k) for k in list(data) if k.startswith("param_")}
-    if manifest.get("channels", list(KINDS)) != list(KINDS):  # written before channels were recorded: KINDS
+    if manifest.get("channels") != list(KINDS):
         raise CollectionError(
             f"{stem} stores its operators in the channel order {manifest['channels']}, this opnet "
             f"reads {list(KINDS)}; {fix}."
@@ -281,104 +305,12 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
         data["operators"],
         data["split"],
         data["subcollection"],
+        data["subject"],
         basis,
         data["eval_subset"],
         params,
         meta,
     )
-
-
-def assemble(
-    vertices: np.ndarray,
-    faces: np.ndarray,
-    base_vertices: np.ndarray,
-    split: np.ndarray,
-    subcollection: np.ndarray,
-    params: dict,
-    meta: dict,
-    *,
-    k: int = 60,
-    progress: bool | None = None,
-    n_eval: int = 5,
-    fps_vertices: np.ndarray | None = None,
-) -> Collection:
-    """A :class:`Collection` from shapes in correspondence: computes the base eigenbasis, the operators
-    (fast path) and the evaluation subset (``n_eval`` shapes per test sub-collection by furthest-point
-    sampling on Hausdorff distance: 10 × 5 = 50 as in the paper, fewer when a sequence is shorter).
-    ``fps_vertices`` (N, n', 3), default ``vertices``, are the shapes the subset is chosen on.
-    """
-    from .splits import furthest_point_subset
-
-    base = Mesh(base_vertices, faces)
-    basis = eigenbasis(base, k)
-    operators = shape_differences(basis, vertices, KINDS, progress=progress).astype(np.float32)
-    subset = []
-    fps_vertices = vertices if fps_vertices is None else fps_vertices
-    for sc in sorted(set(subcollection[split == "test"])):
-        members = np.flatnonzero((subcollection == sc) & (split == "test"))
-        subset.extend(members[furthest_point_subset(fps_vertices[members], n_eval)])
-    return Collection(
-        vertices.astype(np.float32),
-        faces,
-        operators,
-        split,
-        subcollection,
-        basis,
-        np.array(sorted(subset), dtype=np.int64),
-        params,
-        dict(meta, k=k),
-    )
-
-
-def _stem_name(meta: dict) -> str:
-    """The file name (without extensions) of a generated collection: ``<name>-<preset>-<resolution>-seed<seed>-v<N>``.
-    The generator version is part of it: after an upgrade that changes the data, the collection is rebuilt.
-    """
-    return f"{meta['name']}-{meta['preset']}-{meta['resolution']}-seed{meta['seed']}-v{meta['generator_version']}"
-
-
-def load_collection(
-    name: str,
-    preset: str = "quick",
-    root=None,
-    *,
-    resolution: str | None = None,
-    seed: int = 0,
-    rebuild: bool = False,
-    progress: bool | None = None,
-) -> Collection:
-    """The collection ``name`` (``"humans"``, ``"heads"`` or ``"hands"``) at ``preset``, built if missing.
-
-    ``preset`` is ``"quick"`` (a few hundred shapes, for tests), ``"default"`` (several thousand, minutes on a
-    laptop CPU) or ``"paper"`` (≈17 000 training shapes like the paper's). ``resolution`` (humans only) picks
-    the ``"1k"`` (default), ``"2k"`` or ``"5k"``-vertex version of the same shapes. A cached file is reused when
-    its parameters match; a corrupt or mismatched one raises :class:`CollectionError` naming the fix (``rebuild=True``).
-    """
-    from .generators import GENERATOR_VERSION, GENERATORS, PRESETS, shape_count
-
-    if name not in GENERATORS:
-        raise ValueError(
-            f"unknown collection {name!r}; use one of {sorted(GENERATORS)} (or load_folder for your own meshes)."
-        )
-    if preset not in PRESETS:
-        raise ValueError(f"unknown preset {preset!r}; use one of {list(PRESETS)}.")
-    generate, resolutions = GENERATORS[name]
-    resolution = resolutions[0] if resolution is None else resolution
-    if resolution not in resolutions:
-        raise ValueError(f"the {name} collection comes in resolutions {list(resolutions)}, not {resolution!r}.")
-    try:
-        seed = operator.index(seed)
-    except TypeError:
-        raise ValueError(f"seed must be an integer, got {seed!r}.") from None
-    root = Path(root) if root is not None else default_root()
-    meta = dict(name=name, preset=preset, resolution=resolution, seed=seed, generator_version=GENERATOR_VERSION)
-    stem = root / _stem_name(meta)
-    if not rebuild and stem.with_name(stem.name + ".json").is_file():
-        return read_collection(stem, expected_meta=meta)
-    check_root(root, shape_count(name, preset) * _BYTES_PER_SHAPE)
-    coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress)
-    save_or_warn(coll, stem)
-    return coll
 
 
 # Stored bytes per generated shape, at most: a 5k-vertex body (60 kB) and its three 60 × 60 operators (43 kB).
@@ -421,94 +353,3 @@ def save_or_warn(coll: Collection, stem: Path) -> bool:
         )
         return False
     return True
-
-
-def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool | None = None) -> Collection:
-    """A collection from a folder of your own meshes in correspondence (same faces, any of .ply .obj .off).
-
-    Shapes are read in file-name order (hidden files are skipped); ``base`` names the file used as base
-    shape, with or without its extension (default: the first). An optional ``splits.csv`` with lines
-    ``filename,split,subcollection`` (a header line ``filename,...`` is allowed) assigns splits; every
-    sub-collection must lie in one split. Unlisted shapes are ``"train"``, each in a sub-collection named
-    after its file. Save the result with :func:`save_collection`.
-    """
-    from ..mesh import load_mesh
-
-    folder = Path(folder).resolve()
-    if not folder.is_dir():
-        raise CollectionError(f"{folder} is not a folder; pass the folder that holds your meshes.")
-    files = sorted(
-        p
-        for p in folder.iterdir()
-        if p.suffix.lower() in (".ply", ".obj", ".off") and not p.name.startswith(".") and p.is_file()
-    )
-    if not files:
-        raise CollectionError(f"no .ply/.obj/.off meshes in {folder}.")
-    meshes = []
-    for p in files:
-        try:
-            meshes.append(load_mesh(p))
-        except MeshError as exc:
-            raise CollectionError(f"{p.name} is not a usable mesh ({exc}); repair that file.") from None
-    for p, m in zip(files, meshes):
-        if not np.array_equal(m.faces, meshes[0].faces):
-            raise CollectionError(
-                f"{p.name} has other faces than {files[0].name}: the meshes must be in 1-1 correspondence "
-                "with one shared triangulation."
-            )
-    names = [p.name for p in files]
-    split = np.full(len(files), "train", dtype=object)
-    subcollection = np.array([p.stem for p in files], dtype=object)
-    table = folder / "splits.csv"
-    if table.is_file():
-        seen = set()
-        try:
-            lines = table.read_text(encoding="utf-8").splitlines()
-        except UnicodeDecodeError:
-            raise CollectionError(
-                f"{table.name} is not UTF-8 text; write it as lines 'filename,split,subcollection' (in {folder})."
-            ) from None
-        for line_no, line in enumerate(lines, 1):
-            fields = [f.strip() for f in line.split(",")]
-            if not line.strip() or (line_no == 1 and fields[0] == "filename"):
-                continue
-            if len(fields) != 3 or fields[0] not in names or fields[1] not in SPLITS or fields[0] in seen:
-                raise CollectionError(
-                    f"{table}:{line_no}: expected 'filename,split,subcollection' with a known file "
-                    f"listed once and a split in {SPLITS}, got {line!r}."
-                )
-            seen.add(fields[0])
-            split[names.index(fields[0])], subcollection[names.index(fields[0])] = fields[1], fields[2]
-        for sc in set(subcollection):
-            if len(set(split[subcollection == sc])) > 1:
-                raise CollectionError(
-                    f"{table}: sub-collection {sc!r} spans the splits {sorted(set(split[subcollection == sc]))}; "
-                    "a sub-collection is held out whole, so give all its shapes one split."
-                )
-    stems = [p.stem for p in files]
-    if base is None:
-        base_index = 0
-    elif base in names or base in stems:
-        base_index = names.index(base) if base in names else stems.index(base)
-    else:
-        raise CollectionError(f"base {base!r} is not one of the meshes in {folder}.")
-    vertices = np.stack([m.vertices for m in meshes])
-    meta = dict(
-        name=folder.name,
-        preset="folder",
-        resolution=f"{vertices.shape[1]}",
-        seed=0,
-        generator_version="folder",
-        base=names[base_index],
-    )
-    return assemble(
-        vertices,
-        meshes[0].faces,
-        vertices[base_index],
-        split.astype(str),
-        subcollection.astype(str),
-        {"filename": np.array(names)},
-        meta,
-        k=k,
-        progress=progress,
-    )

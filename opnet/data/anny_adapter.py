@@ -1,0 +1,242 @@
+"""The only module of opnet that imports the body model `anny`_: model building, caching and evaluation.
+
+:mod:`opnet.data.humans`, :mod:`~opnet.data.heads` and :mod:`~opnet.data.hands` describe shapes in numpy
+(subjects, joint angles, expressions); everything that touches anny — its models, its result keys, the
+internal functions used to rig the decimated 2k/5k bodies — lives here, so that an anny upgrade is checked
+and mended in one place. Importing this module checks the installed anny against :data:`ANNY_VERSIONS`.
+
+Anny builds and caches its model data on first use (in ``$ANNY_CACHE_DIR``, by default ``~/.cache/anny``:
+seconds for most models, about 1.5 minutes for the hand); the decimated bodies that opnet builds itself are
+cached there too, under a key that includes :func:`model_code_version`, so that editing opnet's
+model-building code rebuilds them instead of silently reusing the old ones. Models are kept in memory.
+
+.. _anny: https://pypi.org/project/anny/
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import inspect
+import re
+from importlib.metadata import version
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from .._extras import require
+from .subjects import PHENOTYPES
+
+#: The anny releases opnet is tested with (the decimated bodies use anny 0.6 internals).
+ANNY_VERSIONS = ((0, 6, 2), (0, 7, 0))  # [lowest, first unsupported)
+
+
+def _check_anny_version(found: str) -> None:
+    parts = tuple(int(p) for p in re.findall(r"\d+", found)[:3])
+    lo, hi = ANNY_VERSIONS
+    if not lo <= parts < hi:
+        want = f">={'.'.join(map(str, lo))},<{'.'.join(map(str, hi[:2]))}"
+        raise ImportError(
+            f"opnet's body models need anny {want} (they use anny's internals to rig the decimated bodies), "
+            f"but anny {found} is installed: pip install 'anny{want}'."
+        )
+
+
+anny = require("anny", "opnet's human, head and hand collections")
+_check_anny_version(version("anny"))
+torch = require("torch", "opnet's human, head and hand collections")
+
+__all__ = [
+    "ANNY_VERSIONS",
+    "RESOLUTIONS",
+    "human_model",
+    "head_model",
+    "hand_model",
+    "model_code_version",
+    "faces",
+    "template_vertices",
+    "bone_labels",
+    "facial_action_labels",
+    "evaluate",
+]
+
+#: Human topologies by approximate vertex count. "1k" is anny's own 1229-vertex mesh; anny ships
+#: no finer simplification of its body (its "collapse5pc"/"collapse3pc" meshes have 615 and 369
+#: vertices), so "2k" and "5k" are quadric decimations of anny's full 12272-vertex "notoes" mesh
+#: to exactly 2000 and 5000 vertices, rigged by anny's own retopology (blendshapes and skinning
+#: weights interpolated at the projection of each vertex onto the full mesh).
+RESOLUTIONS = {"1k": "notoes_collapse10pc", "2k": "notoes_quadric2000", "5k": "notoes_quadric5000"}
+
+_QUADRIC_PREFIX = "notoes_quadric"
+
+
+def _decimated_notoes_model_data(n_vertices: int, code_version: str):
+    """Anny model data on a quadric decimation of the "notoes" mesh to ``n_vertices`` vertices.
+
+    Mirrors anny's ``build_alternative_topology_model_data`` (anny 0.6.2) with a decimated target
+    mesh instead of a shipped one; the phenotype blendshapes are compacted as ``anny.Anny`` does.
+    ``code_version`` is not used here: it is part of anny's cache key (see :func:`model_code_version`).
+    """
+    pv = require("pyvista", "opnet's 2k and 5k human models")
+    from anny.models.full_model import build_anny_model_data
+    from anny.models.model_data import RigConfig, TopologyConfig, with_bone_orientation
+    from anny.models.model_transforms import (
+        apply_anny_cached_orientation,
+        apply_retopology_from_mesh,
+        compact_phenotype_blendshapes,
+    )
+    from anny.models.retopology import _load_target_topology_mesh
+    from anny.utils.mesh_utils import triangulate_faces
+
+    rig = RigConfig.from_string("anny")
+    reference = build_anny_model_data(
+        rig=with_bone_orientation(rig, "blender"),
+        topology=TopologyConfig.from_string("anny"),
+        local_changes="none",
+        facial_actions="none",
+    )
+    vertices, quads = _load_target_topology_mesh("notoes")
+    faces = np.asarray(triangulate_faces(vertices, quads), dtype=np.int64)
+    full = pv.PolyData(vertices.numpy(), np.hstack([np.full((len(faces), 1), 3), faces]).ravel())
+    # a closed triangle mesh with V vertices has 2V - 4 faces
+    decimated = full.decimate(1 - (2 * n_vertices - 4) / len(faces), volume_preservation=True)
+    target_faces = torch.tensor(decimated.faces.reshape(-1, 4)[:, 1:], dtype=torch.int64)
+    data = apply_retopology_from_mesh(
+        reference,
+        target_vertices=torch.as_tensor(np.asarray(decimated.points), dtype=torch.float64),
+        target_faces=target_faces,
+        source_vertices=reference.template_vertices,
+        source_faces=reference.faces,
+        symmetry_axis=0,
+    )
+    data = apply_anny_cached_orientation(data)
+    return compact_phenotype_blendshapes(data, phenotypes="default")
+
+
+def model_code_version(build=_decimated_notoes_model_data) -> str:
+    """A digest (16 hex digits) of the source of opnet's model-building function ``build``.
+
+    It is passed to ``build`` as ``code_version``, which anny's cache hashes with the other arguments:
+    a changed function gets a new cache entry, never the model data the old code built.
+    """
+    return hashlib.sha256(inspect.getsource(build).encode()).hexdigest()[:16]
+
+
+def _decimated_model_data(n_vertices: int):
+    """Cached :func:`_decimated_notoes_model_data` (anny's ``cache_builder``, keyed by the code's version)."""
+    from anny.models.model_data import cache_builder
+
+    build = _decimated_notoes_model_data
+    return cache_builder(build)(n_vertices, code_version=model_code_version(build))
+
+
+def _ready(model):
+    return model.to(torch.float64).eval().requires_grad_(False)
+
+
+@functools.lru_cache(maxsize=None)
+def human_model(resolution: str = "1k"):
+    """The anny body model of a resolution (:data:`RESOLUTIONS`), float64, dense LBS skinning.
+
+    The same rig (104 bones, ``bone_labels``) for every resolution, so one pose array
+    poses all of them alike. The decimated models' data is cached by anny next to its own.
+    """
+    if resolution not in RESOLUTIONS:
+        raise ValueError(f"resolution must be one of {list(RESOLUTIONS)}, got {resolution!r}.")
+    topology = RESOLUTIONS[resolution]
+    if topology.startswith(_QUADRIC_PREFIX):
+        model = anny.Anny.from_model_data(
+            _decimated_model_data(int(topology[len(_QUADRIC_PREFIX) :])),
+            skinning_method="lbs",
+            pose_parameterization="local-ref",
+            bone_orientation="cached",
+            root_identity_orientation=False,
+        )
+    else:
+        model = anny.Anny(topology=topology, skinning_method="lbs")
+    return _ready(model)
+
+
+@functools.lru_cache(maxsize=None)
+def head_model():
+    """Anny's head model (``topology="head"``, rig ``"anny-head"``) with its 52 facial actions, float64."""
+    return _ready(anny.Anny(topology="head", rig="anny-head", facial_actions="all", skinning_method="lbs"))
+
+
+@functools.lru_cache(maxsize=None)
+def hand_model():
+    """Anny's right hand (``topology="hand.R"``, rig ``"anny-hand.R"``: wrist and 20 finger bones), float64.
+
+    Posed in anny's ``"local-bone"`` parameterization: each bone turns in its own axes, ``y`` along
+    the bone and ``x`` the flexion hinge.
+    """
+    model = anny.Anny(topology="hand.R", rig="anny-hand.R", skinning_method="lbs", pose_parameterization="local-bone")
+    return _ready(model)
+
+
+def faces(model) -> np.ndarray:
+    """A model's triangles ``(m, 3)`` int64."""
+    return model.faces.numpy().astype(np.int64)
+
+
+def template_vertices(model) -> np.ndarray:
+    """A model's template vertices ``(n, 3)`` float64 in metres."""
+    return model.template_vertices.numpy()
+
+
+def bone_labels(model) -> tuple[str, ...]:
+    """A model's bone names, in the order of its pose parameters."""
+    return tuple(model.bone_labels)
+
+
+def facial_action_labels(model) -> tuple[str, ...]:
+    """A model's facial action names, in the order of its expression weights."""
+    return tuple(model.facial_action_labels)
+
+
+def _posed(result, vertices):
+    return result["vertices"][:, vertices]
+
+
+def _rest_from_root(result, vertices):
+    # the facial actions are blendshapes of the rest mesh, placed with the root joint at the origin
+    return result["rest_vertices"][:, vertices] - result["rest_bone_heads"][:, :1]
+
+
+def _posed_in_rest_root(result, vertices):
+    # with an identity root delta anny puts the root bone at the origin with identity axes;
+    # turning by the rest root orientation brings the part back to its rest orientation
+    return torch.einsum("bij,bnj->bni", result["rest_bone_poses"][:, 0, :3, :3], result["vertices"][:, vertices])
+
+
+_READERS = {"posed": _posed, "rest_from_root": _rest_from_root, "posed_in_rest_root": _posed_in_rest_root}
+
+
+def evaluate(model, subjects: np.ndarray, *, read: str, vertices=None, batch_size: int = 256, **inputs) -> np.ndarray:
+    """Vertices ``(N, n, 3)`` float64 in metres from batches of model calls on ``subjects`` ``(N, 6)``.
+
+    Parameters
+    ----------
+    model : an anny model (:func:`human_model`, :func:`head_model`, :func:`hand_model`).
+    subjects : (N, 6) phenotype values in :data:`~opnet.data.subjects.PHENOTYPES` order.
+    read : which vertices: ``"posed"``; ``"rest_from_root"`` (the unposed mesh with its root joint at the
+        origin); ``"posed_in_rest_root"`` (posed, the root bone kept in its rest orientation at the origin).
+    vertices : indices of the vertices to keep (default all).
+    batch_size : shapes per model call.
+    inputs : per-shape arrays ``(N, ...)`` passed to the model by keyword (``pose_parameters``,
+        ``facial_actions``).
+    """
+    reader, keep = _READERS[read], slice(None) if vertices is None else torch.as_tensor(vertices)
+    n_vertices = len(template_vertices(model)[keep])
+    out = np.empty((len(subjects), n_vertices, 3))
+    starts = range(0, len(subjects), batch_size)
+    with torch.no_grad():
+        for start in tqdm(starts, desc="meshes", unit="batch", disable=len(starts) < 8):
+            batch = slice(start, start + batch_size)
+            s = torch.from_numpy(subjects[batch])
+            result = model(
+                phenotype_kwargs={label: s[:, i] for i, label in enumerate(PHENOTYPES)},
+                **{key: torch.from_numpy(value[batch]) for key, value in inputs.items()},
+            )
+            out[batch] = reader(result, keep).numpy()
+    return out

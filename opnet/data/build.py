@@ -1,0 +1,57 @@
+"""Assemble a :class:`~opnet.data.storage.Collection` from shapes in correspondence: the base eigenbasis, the
+operators (fast path) and the evaluation subset. Used by the named generators and by :func:`opnet.data.load_folder`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..mesh import Mesh
+from ..shape_difference import KINDS, shape_differences
+from ..spectral import eigenbasis
+from .splits import furthest_point_subset
+from .storage import Collection
+
+__all__ = ["assemble"]
+
+
+def assemble(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    base_vertices: np.ndarray,
+    split: np.ndarray,
+    subcollection: np.ndarray,
+    subject: np.ndarray,
+    params: dict,
+    meta: dict,
+    *,
+    k: int = 60,
+    progress: bool | None = None,
+    n_eval: int = 5,
+    fps_vertices: np.ndarray | None = None,
+) -> Collection:
+    """A :class:`Collection` from shapes in correspondence: computes the base eigenbasis, the operators
+    (fast path) and the evaluation subset (``n_eval`` shapes per test sub-collection by furthest-point
+    sampling on Hausdorff distance: 10 × 5 = 50 as in the paper, fewer when a sequence is shorter).
+    ``fps_vertices`` (N, n', 3), default ``vertices``, are the shapes the subset is chosen on.
+    """
+    base = Mesh(base_vertices, faces)
+    basis = eigenbasis(base, k)
+    operators = shape_differences(basis, vertices, KINDS, progress=progress).astype(np.float32)
+    subset = []
+    fps_vertices = vertices if fps_vertices is None else fps_vertices
+    for sc in sorted(set(subcollection[split == "test"])):
+        members = np.flatnonzero((subcollection == sc) & (split == "test"))
+        subset.extend(members[furthest_point_subset(fps_vertices[members], n_eval)])
+    return Collection(
+        vertices.astype(np.float32),
+        faces,
+        operators,
+        split,
+        subcollection,
+        subject,
+        basis,
+        np.array(sorted(subset), dtype=np.int64),
+        params,
+        dict(meta, k=k),
+    )
