@@ -66,6 +66,11 @@ def test_splits_hold_out_whole_subcollections_and_subjects(coll):
     seen = set(coll.subject[coll.split != "test_subjects"])
     assert unseen and unseen.isdisjoint(seen)
     assert len(set(coll.subcollection[coll.split == "test"])) == 2
+    s = coll.subjects()[0]
+    walk = coll.sequence(s, "bend")
+    assert len(walk) and np.all(coll.subcollection[walk] == f"{s}/bend") and np.all(np.diff(walk) > 0)
+    with pytest.raises(ValueError, match=f"subject '{s}' has no sequence {s}/moonwalk"):
+        coll.sequence(s, "moonwalk")
 
 
 def test_evaluation_subset_is_furthest_point_per_test_subcollection(coll):
@@ -190,6 +195,13 @@ def test_user_folder_loader(tmp_path):
     np.testing.assert_allclose(coll.vertices[2], toy.bend(base.vertices, 1.0), atol=1e-6)
     back = opnet.data.read_collection(opnet.data.save_collection(coll, tmp_path / "mine"))
     np.testing.assert_array_equal(back.params["filename"], ["pose0.ply", "pose1.ply", "pose2.ply", "pose3.ply"])
+    assert list(back.subject) == list(back.subcollection) == ["pose0", "pose1", "pose2", "pose3"]
+    (folder / "splits.csv").write_text("pose2.ply,test,walk-a,ann\npose3.ply,test,walk-b,ann\n")  # with subjects
+    people = opnet.data.load_folder(folder, k=15, progress=False)
+    assert people.subjects() == ["ann", "pose0", "pose1"] and people.subjects("test") == ["ann"]
+    assert list(people.sequence("ann")) == [2, 3] and list(people.sequence("pose0")) == [0]
+    with pytest.raises(ValueError, match="no subject 'bob'.*'ann'"):
+        people.sequence("bob")
     other = toy.capsule("default")
     trimesh.Trimesh(other.vertices, other.faces, process=False).export(folder / "pose9.ply")
     with pytest.raises(CollectionError, match="pose9.ply has other faces"):
