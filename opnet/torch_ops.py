@@ -19,6 +19,7 @@ import numpy as np
 import torch
 
 from ._checks import real_array
+from .inner_products import INNER_PRODUCTS, get_inner_products
 from .mesh import unique_edges
 from .shape_difference import KINDS, base_pinvs
 from .spectral import Eigenbasis, _corner_to_edge
@@ -52,6 +53,8 @@ class ShapeDifferences(torch.nn.Module):
     device : where the constants live (kept in float64); :meth:`forward` casts them to the input's dtype and
         moves them to its device when they differ, so one module serves float32 and float64, CPU and CUDA.
 
+    Notes
+    -----
     Calling the module on ``X`` ``(B, n, 3)`` gives ``(B, len(kinds), k, k)``, equal in float64 to
     :func:`opnet.shape_differences` of the same coordinates (to ~1e-12 relative).
     """
@@ -63,15 +66,13 @@ class ShapeDifferences(torch.nn.Module):
                 f"base_basis must be an opnet.Eigenbasis (opnet.eigenbasis(base_mesh, k)), got "
                 f"{type(base_basis).__name__}."
             )
-        if isinstance(kinds, str):
-            raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a string.")
-        kinds = tuple(kinds)
-        unknown = [k for k in kinds if not (isinstance(k, str) and k in KINDS)]
-        if not kinds or unknown:
+        ips = get_inner_products(kinds)  # the same checks and names as the numpy path
+        if any(ip is not INNER_PRODUCTS.get(ip.name) for ip in ips):
             raise ValueError(
-                f"kinds must be a non-empty sequence of {KINDS} (custom inner products have no torch "
-                f"form; compute them with opnet.shape_differences), got {kinds!r}."
+                f"kinds must name built-in kinds of {KINDS}: custom inner products have no torch form; compute "
+                f"them with opnet.shape_differences (got {[ip.name for ip in ips]})."
             )
+        kinds = tuple(ip.name for ip in ips)
         self.kinds, self.n_vertices, self.k = kinds, base_basis.mesh.n_vertices, base_basis.k
         mesh = base_basis.mesh
         faces, edges = mesh.faces, unique_edges(mesh.faces)

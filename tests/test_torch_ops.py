@@ -83,7 +83,7 @@ def test_functional_shorthand_and_bad_input(base_basis, deformed):
         module(torch.zeros(1, n, 3, dtype=torch.complex128))
     with pytest.raises(TypeError, match="Eigenbasis"):
         ShapeDifferences(base_basis.mesh)
-    with pytest.raises(TypeError, match="not a string"):
+    with pytest.raises(TypeError, match="not a single one"):
         ShapeDifferences(base_basis, "area")
     with pytest.raises(ValueError, match="custom inner products"):
         ShapeDifferences(base_basis, (opnet.AreaInnerProduct(),))
