@@ -60,6 +60,7 @@ __all__ = [
     "PATH_KINDS",
 ]
 
+#: How operators are combined: the paper's multiplicative algebra (eq. 6, ``D_C D_A⁺ D_B``) or linear.
 SCHEMES = ("multiplicative", "linear")
 #: Analogy benchmark kinds: "pose" (a, p) : (a, q) :: (b, p) : (b, q); "body" (a, p) : (b, p) :: (a, q) : (b, q).
 ANALOGY_KINDS = ("pose", "body")

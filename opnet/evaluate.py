@@ -56,6 +56,7 @@ __all__ = [
     "evaluate",
 ]
 
+#: The test sets that :func:`evaluate` reports by default (this module's docstring says what each holds).
 TEST_SETS = ("eval_subset", "test", "test_subjects")
 _LABELS = {KINDS: "Int+Ext", ("area", "conformal"): "Int", ("extrinsic",): "Ext"}
 

@@ -37,6 +37,7 @@ from .torch_ops import ShapeDifferences
 
 __all__ = ["reconstruct", "truncate_operators", "operator_mismatch", "OPTIMIZERS"]
 
+#: The optimisers of :func:`reconstruct`: per-shape batched L-BFGS (the default) or Adam.
 OPTIMIZERS = ("lbfgs", "adam")
 
 

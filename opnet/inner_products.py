@@ -213,11 +213,13 @@ def checked_gram(ip: InnerProduct, method: str, *args) -> np.ndarray:
     return K
 
 
+#: The paper's three inner products by name: what a ``kind`` string (``"area"``, ``"conformal"``,
+#: ``"extrinsic"``) stands for.
 INNER_PRODUCTS = {ip.name: ip for ip in (AreaInnerProduct(), ConformalInnerProduct(), ExtrinsicInnerProduct())}
 
 
 def get_inner_product(kind) -> InnerProduct:
-    """``"area"``, ``"conformal"``, ``"extrinsic"`` or an :class:`InnerProduct` instance."""
+    """``"area"``, ``"conformal"``, ``"extrinsic"`` or an :class:`~opnet.inner_products.InnerProduct` instance."""
     if isinstance(kind, InnerProduct):
         return kind
     if isinstance(kind, type) and issubclass(kind, InnerProduct):

@@ -464,7 +464,7 @@ class Mesh:
 
 
 def load_mesh(path, **kwargs) -> Mesh:
-    """Read a ``.ply``, ``.obj``, ``.off`` or ``.stl`` file into a validated :class:`Mesh`.
+    """Read a ``.ply``, ``.obj``, ``.off`` or ``.stl`` file into a validated :class:`~opnet.mesh.Mesh`.
 
     The vertex order of the file is kept (no merging or reordering), so meshes in
     correspondence stay in correspondence. STL stores every triangle with its own

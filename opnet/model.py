@@ -87,6 +87,8 @@ class OperatorNet(nn.Module):
     residual : decode a displacement from the base shape (buffer ``base`` ``(n, 3)``, set by
         :meth:`set_statistics`): the output is ``base + decoder(·)``, so an untrained network starts at the base.
 
+    Notes
+    -----
     ``standardize=True, residual=True`` is this project's variant (:data:`VARIANTS` ``["ours"]``); the README
     reports how each part changes the validation error. Both sets of buffers are saved with the weights.
     """
@@ -129,6 +131,7 @@ class OperatorNet(nn.Module):
         self.decoder = dense_decoder(width * size * size, hidden, n_vertices)
 
     def forward(self, operators: torch.Tensor) -> torch.Tensor:
+        """Vertices ``(B, n_vertices, 3)`` from operators ``(B, C, k, k)`` (float32 or narrower; the ``channels``)."""
         operators = as_input(
             "operators",
             operators,
@@ -203,7 +206,7 @@ class PointNetAutoencoder(nn.Module):
     the points. It reads ``n_points`` of the ``n`` vertices, the same ones for every shape (buffer
     ``point_index``, spread over the base shape by :meth:`choose_points`; all vertices when ``n_points`` is
     ``None``): the per-point MLP's cost grows with the points, and a few hundred cover a body.
-    The decoder is OperatorNet's (:func:`dense_decoder`, ``latent → hidden → hidden → 3 n``), so the two
+    The decoder is OperatorNet's (``dense_decoder``, ``latent → hidden → hidden → 3 n``), so the two
     networks differ only in what they read: coordinates here, shape differences there. Its algebra is linear in
     the code: interpolation ``(1 − t) z_0 + t z_1`` and analogy ``z_X = z_C + z_B − z_A`` (:mod:`opnet.apps`).
 
@@ -257,6 +260,7 @@ class PointNetAutoencoder(nn.Module):
         return self.decoder(codes).view(-1, self.n_vertices, 3)
 
     def forward(self, vertices: torch.Tensor) -> torch.Tensor:
+        """Reconstructed vertices ``(B, n_vertices, 3)`` from vertices ``(B, n_vertices, 3)``: decode(encode(·))."""
         return self.decode(self.encode(vertices))
 
     def config(self) -> dict:
@@ -275,7 +279,9 @@ ARCHITECTURES = {"operatornet": (OperatorNet, "operators"), "pointnet": (PointNe
 
 
 def build_model(config: dict) -> nn.Module:
-    """A network from its :meth:`config` (``architecture`` defaults to ``"operatornet"``, as in older checkpoints)."""
+    """A network from its ``config()`` (:meth:`OperatorNet.config`, :meth:`PointNetAutoencoder.config`;
+    ``architecture`` defaults to ``"operatornet"``, as in older checkpoints).
+    """
     config = dict(config)
     architecture = config.pop("architecture", "operatornet")
     if architecture not in ARCHITECTURES:

@@ -105,6 +105,7 @@ class Budget:
     discretisation_shapes: int = 80  # test shapes the different-discretisation rows map (seconds each)
 
 
+#: The training settings (:class:`Budget`) of each preset.
 BUDGETS = {
     "quick": Budget(
         epochs=80,
@@ -130,6 +131,7 @@ TABLE1 = {
 }
 #: The ablation's columns (Appendix B, in the paper's order) and rows.
 ABLATION_SETS = CHANNEL_SETS
+#: The ablation's encoder depths (its rows).
 ABLATION_DEPTHS = (1, 2, 3, 4)
 
 #: This project's variant (:data:`opnet.model.VARIANTS` ``["ours"]``), trained like Table 1's networks.
@@ -137,11 +139,13 @@ OURS = {"OperatorNet ours (Int+Ext)": KINDS}
 #: The operator-matching rows (:func:`opnet.reconstruct`): its settings, chosen on ``val`` (README), and the
 #: test sets they are evaluated on (at most ``Budget.refine_shapes`` shapes of each).
 REFINE = dict(channels=("area", "extrinsic"), optimizer="lbfgs", smoothness=1.0)
+#: The test sets on which the operator-matching rows are evaluated.
 REFINE_SETS = ("test", "test_subjects")
 
 #: Table 1's "Comp" rows: OperatorNet trained and tested on operators through maps computed from each shape's
 #: :data:`COMP_RESOLUTION` mesh (:func:`opnet.matching.compute_map`), not the known correspondence.
 COMP = {"OperatorNet (Comp)(Int+Ext)": KINDS, "OperatorNet (Comp)(Ext)": ("extrinsic",)}
+#: The mesh (:data:`opnet.data.humans.RESOLUTIONS`) whose computed maps the "Comp" rows use.
 COMP_RESOLUTION = "2k"
 #: The different-discretisation rows: test shapes on these meshes, mapped onto the 1k base by these maps.
 DISCRETISATIONS = (("2k", "true"), ("2k", "computed"), ("5k", "true"), ("5k", "computed"))

@@ -26,6 +26,7 @@ from .spectral import Eigenbasis
 
 __all__ = ["shape_difference", "shape_differences", "distortion_function", "KINDS", "pinv_psd"]
 
+#: The three shape differences, in the channel order of every ``(..., 3, k, k)`` operator array.
 KINDS = ("area", "conformal", "extrinsic")
 
 

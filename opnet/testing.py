@@ -1,4 +1,4 @@
-"""Checks for people writing a new inner product: :func:`check_inner_product`."""
+"""Checks for people writing a new inner product: :func:`~opnet.testing.check_inner_product`."""
 
 from __future__ import annotations
 

@@ -1,12 +1,12 @@
-"""Training OperatorNet (section 5) and the PointNet autoencoder: :func:`fit`, run directories, atomic checkpoints,
-exact resume, DDP.
+"""Training OperatorNet (section 5) and the PointNet autoencoder: :func:`~opnet.train.fit`, run directories,
+atomic checkpoints, exact resume, DDP.
 
 A run directory holds four files, each written atomically (temporary file + ``os.replace``):
 
 ``config.json``
     what was trained on and how: the collection (name, preset, resolution, seed, generator version and a
     SHA-256 fingerprint of its arrays), the network (its ``config()``), the hyper-parameters, and
-    the training-code version (:data:`TRAINING_VERSION`), the opnet / torch versions and the device.
+    the training-code version (``TRAINING_VERSION``), the opnet / torch versions and the device.
 ``latest.pt``
     the state after the last finished epoch: weights, Adam state, history, best epoch. It is the commit
     point: a run killed at any moment (even by SIGKILL) resumes from it, and a resumed CPU run ends with the
@@ -64,7 +64,9 @@ CHECKPOINT_FORMAT = "opnet-checkpoint"
 CHECKPOINT_VERSION = 1
 # Bump when a change to the training code changes what a run produces: runs of other versions are not resumed.
 TRAINING_VERSION = 1
+#: The files of a run directory (this module's docstring says what each holds).
 RUN_FILES = ("config.json", "latest.pt", "best.pt", "history.json")
+#: The learning-rate schedules of :func:`fit`: the paper's constant rate, or one cycle (our variant's).
 SCHEDULES = ("constant", "onecycle")
 _VARIANT_SCHEDULE = {"paper": "constant", "ours": "onecycle"}
 

@@ -32,7 +32,7 @@ __all__ = [
     "resolution_map",
 ]
 
-# Bump when a generator changes what it produces: cached collections then no longer match.
+#: Bumped when a generator changes what it produces: cached collections then no longer match.
 GENERATOR_VERSION = "2"
 
 
@@ -45,6 +45,8 @@ class Preset:
     val_subcollections: int  # (subject, motion) sequences held out for validation
 
 
+#: The named presets' sizes: body types (``subjects``), ``frames`` per motion sequence, ``random`` poses per
+#: subject, unseen ``test_subjects``, and (subject, motion) sequences held out for validation.
 PRESETS = {
     "quick": Preset(subjects=8, frames=4, random=2, test_subjects=2, val_subcollections=3),
     "default": Preset(subjects=24, frames=16, random=20, test_subjects=3, val_subcollections=8),
@@ -276,7 +278,8 @@ def load_collection(
     ``preset`` is ``"quick"`` (a few hundred shapes, for tests), ``"default"`` (several thousand, minutes on a
     laptop CPU) or ``"paper"`` (≈17 000 training shapes like the paper's). ``resolution`` (humans only) picks
     the ``"1k"`` (default), ``"2k"`` or ``"5k"``-vertex version of the same shapes. A cached file is reused when
-    its parameters match; a corrupt or mismatched one raises :class:`CollectionError` naming the fix (``rebuild=True``).
+    its parameters match; a corrupt or mismatched one raises :class:`~opnet.data.CollectionError` naming the fix
+    (``rebuild=True``).
     """
     if name not in GENERATORS:
         raise ValueError(

@@ -53,7 +53,9 @@ __all__ = [
     "SPLITS",
 ]
 
-FORMAT_VERSION = 3  # 3: the per-shape subject
+#: The on-disk format's version, stored in each manifest (3: the per-shape ``subject``).
+FORMAT_VERSION = 3
+#: The splits, as stored in a collection's ``split`` array.
 SPLITS = ("train", "val", "test", "test_subjects")
 
 

@@ -1,0 +1,52 @@
+"""The documentation site builds as ``make docs`` builds it, and a broken cross-reference fails that build.
+
+Sphinx runs with ``-W --keep-going -n`` (warnings are errors; nitpicky: every reference, in the pages and in the
+docstrings, must resolve) into a temporary folder. The notebooks are rendered from their committed outputs, never
+executed, so a build takes about 15 s on 2 cores.
+"""
+
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+for _module in ("sphinx", "myst_nb", "pydata_sphinx_theme", "numpydoc", "latex2mathml"):
+    pytest.importorskip(_module, reason="the docs extra is not installed: pip install -e '.[docs]'")
+
+ROOT = Path(__file__).resolve().parents[1]
+REMOTE_ASSET = re.compile(r"<(?:script|link|img)\b[^>]*\b(?:src|href)=\"(?:https?:)?//[^\"]+\"")
+
+
+def sphinx_build(source: Path, out: Path) -> subprocess.CompletedProcess:
+    command = [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-n", "-q", "-b", "html", str(source), str(out)]
+    return subprocess.run(command, capture_output=True, text=True, timeout=600)
+
+
+def test_site_builds_with_every_reference_resolved_and_nothing_remote(tmp_path):
+    out = tmp_path / "html"
+    result = sphinx_build(ROOT / "docs", out)
+    assert result.returncode == 0, result.stderr[-6000:]
+    assert (out / "index.html").is_file() and (out / "api" / "opnet.spectral.html").is_file()
+    for notebook in sorted((ROOT / "notebooks").glob("0*.ipynb")):
+        page = (out / "tutorials" / f"{notebook.stem}.html").read_text()
+        assert "<img" in page, f"{notebook.name}: no figure rendered"
+    for page in out.rglob("*.html"):  # offline: no script, stylesheet, font or picture fetched at view time
+        assert not REMOTE_ASSET.search(page.read_text()), f"{page.relative_to(out)} loads a remote asset"
+
+
+def test_a_broken_reference_fails_the_build(tmp_path):
+    """A copy of docs/ with one more page naming a function that does not exist: the build fails on it."""
+    source = tmp_path / "docs"
+    shutil.copytree(ROOT / "docs", source)  # follows docs/tutorials' links: real copies of the notebooks
+    shutil.copy(ROOT / "README.md", tmp_path / "README.md")  # the pages include parts of it
+    (source / "broken.md").write_text(
+        "---\norphan: true\n---\n\n# Broken\n\nSee {func}`opnet.no_such_function` and {func}`opnet.eigenbasis`.\n"
+    )
+    result = sphinx_build(source, tmp_path / "html")
+    assert result.returncode != 0
+    problems = [line for line in result.stderr.splitlines() if "WARNING" in line or "ERROR" in line]
+    assert len(problems) == 1 and "broken.md" in problems[0], result.stderr[-6000:]
+    assert "reference target not found: opnet.no_such_function" in problems[0]
