@@ -67,10 +67,11 @@ class ShapeDifferences(torch.nn.Module):
                 f"{type(base_basis).__name__}."
             )
         ips = get_inner_products(kinds)  # the same checks and names as the numpy path
-        if any(ip is not INNER_PRODUCTS.get(ip.name) for ip in ips):
+        custom = [type(ip).__name__ for ip in ips if type(ip) is not type(INNER_PRODUCTS.get(ip.name))]
+        if custom:
             raise ValueError(
-                f"kinds must name built-in kinds of {KINDS}: custom inner products have no torch form; compute "
-                f"them with opnet.shape_differences (got {[ip.name for ip in ips]})."
+                f"kinds must be built-in kinds of {KINDS}; {custom} have no torch form: compute them with "
+                "opnet.shape_differences."
             )
         kinds = tuple(ip.name for ip in ips)
         self.kinds, self.n_vertices, self.k = kinds, base_basis.mesh.n_vertices, base_basis.k

@@ -122,13 +122,9 @@ def interpolation_explorer(
     t = np.linspace(0, 1, steps)
     start = start or labels[0]
     if end is None:  # the first shape of another sequence (not a random pose), else the last one
-        sub = collection.subcollection
+        sub, motion = collection.subcollection, collection.params.get("motion", np.full(len(collection), ""))
         end = next(
-            (
-                label
-                for label, i in shapes.items()
-                if sub[i] != sub[shapes[start]] and not str(sub[i]).endswith("/random")
-            ),
+            (label for label, i in shapes.items() if sub[i] != sub[shapes[start]] and motion[i] != "random"),
             labels[-1],
         )
     first = w.Dropdown(options=labels, value=start, description="start")

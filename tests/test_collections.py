@@ -69,7 +69,7 @@ def test_splits_hold_out_whole_subcollections_and_subjects(coll):
     s = coll.subjects()[0]
     walk = coll.sequence(s, "bend")
     assert len(walk) and np.all(coll.subcollection[walk] == f"{s}/bend") and np.all(np.diff(walk) > 0)
-    with pytest.raises(ValueError, match=f"subject '{s}' has no sequence {s}/moonwalk"):
+    with pytest.raises(ValueError, match=f"subject '{s}' has no sequence 'moonwalk'; it has .*'{s}/bend'"):
         coll.sequence(s, "moonwalk")
 
 
@@ -199,9 +199,15 @@ def test_user_folder_loader(tmp_path):
     (folder / "splits.csv").write_text("pose2.ply,test,walk-a,ann\npose3.ply,test,walk-b,ann\n")  # with subjects
     people = opnet.data.load_folder(folder, k=15, progress=False)
     assert people.subjects() == ["ann", "pose0", "pose1"] and people.subjects("test") == ["ann"]
-    assert list(people.sequence("ann")) == [2, 3] and list(people.sequence("pose0")) == [0]
+    assert list(people.sequence("ann")) == [2, 3] and list(people.sequence("ann", "walk-b")) == [3]
     with pytest.raises(ValueError, match="no subject 'bob'.*'ann'"):
         people.sequence("bob")
+    (folder / "splits.csv").write_text("pose2.ply,test_subjects,walk-a,ann\npose3.ply,train,walk-b,ann\n")
+    with pytest.raises(CollectionError, match=r"subjects \['ann'\] have shapes in 'test_subjects' and in other"):
+        opnet.data.load_folder(folder, k=15, progress=False)
+    (folder / "splits.csv").write_text("pose2.ply,test,walk-a,\n")
+    with pytest.raises(CollectionError, match="no empty field"):
+        opnet.data.load_folder(folder, k=15, progress=False)
     other = toy.capsule("default")
     trimesh.Trimesh(other.vertices, other.faces, process=False).export(folder / "pose9.ply")
     with pytest.raises(CollectionError, match="pose9.ply has other faces"):
@@ -323,3 +329,29 @@ def test_the_manifest_records_the_channel_order(coll, tmp_path):
     path.write_text(json.dumps(dict(manifest, channels=["extrinsic", "area", "conformal"])))
     with pytest.raises(CollectionError, match=r"channel order \['extrinsic', 'area', 'conformal'\].*rebuild=True"):
         opnet.data.read_collection(path)
+
+
+def test_a_format_2_collection_is_read_with_its_subjects_derived(coll, tmp_path):
+    """Collections cached before the subject array (format 2, no channel order recorded) load as they were, each
+    shape's subject taken from its sub-collection's name; another format is refused with how to make it again."""
+    from opnet.data import storage
+
+    stem = tmp_path / "old"
+    manifest = json.loads(opnet.data.save_collection(coll, stem).read_text())
+    with np.load(stem.with_name(manifest["data"])) as z:
+        arrays = {k: z[k] for k in z.files if k != "subject"}
+    stem.with_name(manifest["data"]).unlink()
+    tmp = tmp_path / "old.npz.tmp"
+    with open(tmp, "wb") as f:
+        np.savez(f, **arrays)
+    digest = storage._sha256(tmp)
+    data = tmp.rename(tmp_path / f"old.{digest[:12]}.npz")
+    del manifest["channels"], manifest["shapes"]["subject"]
+    old = dict(manifest, format_version=2, data=data.name, sha256=digest)
+    stem.with_name("old.json").write_text(json.dumps(old))
+    back = opnet.data.read_collection(stem)
+    np.testing.assert_array_equal(back.subject, coll.subject)
+    np.testing.assert_array_equal(back.operators, coll.operators)
+    stem.with_name("old.json").write_text(json.dumps(dict(old, format_version=1)))
+    with pytest.raises(CollectionError, match="format 1.*reads 2 and 3.*rebuild=True"):
+        opnet.data.read_collection(stem)

@@ -85,8 +85,14 @@ def test_functional_shorthand_and_bad_input(base_basis, deformed):
         ShapeDifferences(base_basis.mesh)
     with pytest.raises(TypeError, match="not a single one"):
         ShapeDifferences(base_basis, "area")
-    with pytest.raises(ValueError, match="custom inner products"):
-        ShapeDifferences(base_basis, (opnet.AreaInnerProduct(),))
+
+    class Doubled(opnet.AreaInnerProduct):  # a custom inner product: no torch form
+        def project_batch(self, vertices, faces, evecs):
+            return 2 * super().project_batch(vertices, faces, evecs)
+
+    with pytest.raises(ValueError, match=r"\['Doubled'\] have no torch form"):
+        ShapeDifferences(base_basis, ("area", Doubled()))
+    assert ShapeDifferences(base_basis, (opnet.AreaInnerProduct(), "conformal")).kinds == ("area", "conformal")
     # numpy input is accepted (converted losslessly)
     assert torch.allclose(module(deformed), module(torch.tensor(deformed)))
 

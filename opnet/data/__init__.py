@@ -1,12 +1,16 @@
 """Shape data: parametric collections (humans, heads, hands from the ``anny`` body model), your own meshes,
 and smooth toy shapes for tutorials and tests.
 
-Layers, each importing only those below it: :mod:`~opnet.data.storage` (the :class:`Collection` and its
-on-disk format) and :mod:`~opnet.data.build` (a collection from vertices); :mod:`~opnet.data.humans`,
-:mod:`~opnet.data.heads`, :mod:`~opnet.data.hands` (shapes described in numpy, evaluated by
-:mod:`~opnet.data.anny_adapter`, the only module that imports anny); :mod:`~opnet.data.generators` (the named
-collections and :func:`load_collection`), :mod:`~opnet.data.folder` (your own meshes) and
-:mod:`~opnet.data.mapped` (operators through computed maps).
+Layers, each importing only from those before it (``tests/test_data_layers.py`` checks it):
+
+1. :mod:`~opnet.data.storage` (the :class:`Collection` and its on-disk format), :mod:`~opnet.data.splits`,
+   :mod:`~opnet.data.subjects`, :mod:`~opnet.data.motion`, :mod:`~opnet.data.toy`;
+2. :mod:`~opnet.data.build` (a collection from vertices) and :mod:`~opnet.data.anny_adapter` (the only module of
+   opnet that imports anny);
+3. :mod:`~opnet.data.humans`, :mod:`~opnet.data.heads`, :mod:`~opnet.data.hands` (shapes described in numpy);
+4. :mod:`~opnet.data.generators` (the named collections and :func:`load_collection`), :mod:`~opnet.data.folder`
+   (your own meshes);
+5. :mod:`~opnet.data.mapped` (operators through computed maps), :mod:`~opnet.data.torch_dataset`.
 
 ::
 

@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import inspect
 import re
+import types
 from importlib.metadata import version
 
 import numpy as np
@@ -35,16 +35,16 @@ def _check_anny_version(found: str) -> None:
     parts = tuple(int(p) for p in re.findall(r"\d+", found)[:3])
     lo, hi = ANNY_VERSIONS
     if not lo <= parts < hi:
-        want = f">={'.'.join(map(str, lo))},<{'.'.join(map(str, hi[:2]))}"
+        want = f">={'.'.join(map(str, lo))},<{'.'.join(map(str, hi))}"
         raise ImportError(
             f"opnet's body models need anny {want} (they use anny's internals to rig the decimated bodies), "
             f"but anny {found} is installed: pip install 'anny{want}'."
         )
 
 
-anny = require("anny", "opnet's human, head and hand collections")
+anny = require("anny", "opnet.data.anny_adapter")
 _check_anny_version(version("anny"))
-torch = require("torch", "opnet's human, head and hand collections")
+torch = require("torch", "opnet.data.anny_adapter")
 
 __all__ = [
     "ANNY_VERSIONS",
@@ -114,12 +114,29 @@ def _decimated_notoes_model_data(n_vertices: int, code_version: str):
 
 
 def model_code_version(build=_decimated_notoes_model_data) -> str:
-    """A digest (16 hex digits) of the source of opnet's model-building function ``build``.
+    """A digest (16 hex digits) of opnet's model-building function ``build`` as it runs, and of what it calls:
+    its compiled code (not the file on disk, which may have been edited since it was imported) and the versions
+    of anny and of VTK (the decimation).
 
     It is passed to ``build`` as ``code_version``, which anny's cache hashes with the other arguments:
     a changed function gets a new cache entry, never the model data the old code built.
     """
-    return hashlib.sha256(inspect.getsource(build).encode()).hexdigest()[:16]
+    pv = require("pyvista", "opnet's 2k and 5k human models")
+    versions = f"anny {version('anny')} vtk {tuple(pv.vtk_version_info)}".encode()
+    return hashlib.sha256(_code_digest(build.__code__) + versions).hexdigest()[:16]
+
+
+def _code_digest(code: types.CodeType) -> bytes:
+    """SHA-256 of compiled code: its bytecode, names and constants (nested functions included), the same in
+    every process of one Python version (``marshal`` output is not: it depends on reference counts).
+    """
+    parts = [code.co_code, repr(code.co_names).encode(), repr(code.co_varnames).encode()]
+    for c in code.co_consts:
+        if isinstance(c, types.CodeType):
+            parts.append(_code_digest(c))
+        else:
+            parts.append(repr(sorted(map(repr, c)) if isinstance(c, frozenset) else c).encode())
+    return hashlib.sha256(b"\0".join(parts)).digest()
 
 
 def _decimated_model_data(n_vertices: int):
@@ -180,8 +197,8 @@ def faces(model) -> np.ndarray:
 
 
 def template_vertices(model) -> np.ndarray:
-    """A model's template vertices ``(n, 3)`` float64 in metres."""
-    return model.template_vertices.numpy()
+    """A model's template vertices ``(n, 3)`` float64 in metres (a copy)."""
+    return model.template_vertices.numpy().copy()
 
 
 def bone_labels(model) -> tuple[str, ...]:
@@ -226,8 +243,10 @@ def evaluate(model, subjects: np.ndarray, *, read: str, vertices=None, batch_siz
     inputs : per-shape arrays ``(N, ...)`` passed to the model by keyword (``pose_parameters``,
         ``facial_actions``).
     """
-    reader, keep = _READERS[read], slice(None) if vertices is None else torch.as_tensor(vertices)
-    n_vertices = len(template_vertices(model)[keep])
+    if read not in _READERS:
+        raise ValueError(f"read must be one of {list(_READERS)}, got {read!r}.")
+    keep = slice(None) if vertices is None else torch.as_tensor(np.atleast_1d(np.asarray(vertices, dtype=np.int64)))
+    reader, n_vertices = _READERS[read], model.template_vertices[keep].shape[0]
     out = np.empty((len(subjects), n_vertices, 3))
     starts = range(0, len(subjects), batch_size)
     with torch.no_grad():

@@ -56,30 +56,36 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
             lines = table.read_text(encoding="utf-8").splitlines()
         except UnicodeDecodeError:
             raise CollectionError(
-                f"{table.name} is not UTF-8 text; write it as lines 'filename,split,subcollection' (in {folder})."
+                f"{table.name} is not UTF-8 text; write it as lines 'filename,split,subcollection[,subject]' "
+                f"(in {folder})."
             ) from None
         for line_no, line in enumerate(lines, 1):
             fields = [f.strip() for f in line.split(",")]
             if not line.strip() or (line_no == 1 and fields[0] == "filename"):
                 continue
-            if len(fields) not in (3, 4) or fields[0] not in names or fields[1] not in SPLITS or fields[0] in seen:
+            known = fields[0] in names and fields[0] not in seen and fields[1] in SPLITS
+            if len(fields) not in (3, 4) or not known or not all(fields):
                 raise CollectionError(
                     f"{table}:{line_no}: expected 'filename,split,subcollection[,subject]' with a known file "
-                    f"listed once and a split in {SPLITS}, got {line!r}."
+                    f"listed once, a split in {SPLITS} and no empty field, got {line!r}."
                 )
             seen.add(fields[0])
             i = names.index(fields[0])
-            split[i], subcollection[i], subject[i] = (
-                fields[1],
-                fields[2],
-                fields[-1],
-            )  # 3 fields: subject = subcollection
+            split[i], subcollection[i] = fields[1], fields[2]
+            subject[i] = fields[-1]  # the sub-collection when there is no fourth field
         for sc in set(subcollection):
             if len(set(split[subcollection == sc])) > 1:
                 raise CollectionError(
                     f"{table}: sub-collection {sc!r} spans the splits {sorted(set(split[subcollection == sc]))}; "
                     "a sub-collection is held out whole, so give all its shapes one split."
                 )
+        unseen = set(subject[split == "test_subjects"])
+        if unseen & set(subject[split != "test_subjects"]):
+            raise CollectionError(
+                f"{table}: the subjects {sorted(unseen & set(subject[split != 'test_subjects']))} have shapes in "
+                "'test_subjects' and in other splits; the test_subjects split holds subjects never seen in training, "
+                "so give all their shapes that split."
+            )
     stems = [p.stem for p in files]
     if base is None:
         base_index = 0

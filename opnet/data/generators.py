@@ -196,7 +196,7 @@ def _generated(collection) -> str:
 def generate_shapes(collection, phenotypes, controls, *, resolution: str | None = None) -> np.ndarray:
     """New shapes of a generated collection's kind, on its mesh: vertices ``(N, n, 3)`` float64 (metres).
 
-    ``resolution`` (humans: a key of :data:`opnet.data.humans.RESOLUTIONS`) gives the same shapes on another
+    ``resolution`` (humans: one of :data:`opnet.data.humans.RESOLUTIONS`) gives the same shapes on another
     triangulation instead, whose faces are ``humans.human_faces(resolution)``: the 2k and 5k meshes that
     :mod:`opnet.matching` maps onto a 1k base. ``phenotypes`` ``(N, 6)`` and ``controls`` ``(N, ...)`` are
     generator parameters like the collection's own

@@ -75,7 +75,7 @@ def mapped_collection(
     collection : Collection
         A generated humans collection (:func:`opnet.data.load_collection`), whose base is the 1k mesh.
     resolution : str
-        The other triangulation: a key of :data:`opnet.data.humans.RESOLUTIONS` (``"2k"``, ``"5k"``).
+        The other triangulation: one of :data:`opnet.data.humans.RESOLUTIONS` (``"2k"``, ``"5k"``).
     maps : str
         ``"computed"`` or ``"true"`` (see the module docstring).
     indices : array of int, optional
@@ -147,13 +147,15 @@ def mapped_collection(
 
 def _fingerprint(source: Collection, k: int) -> str:
     """What the operators depend on: the shapes' generator parameters, the base, the versions of the map's code
-    (:data:`opnet.matching.MAP_VERSION`, pyFM's) and ``k``; 12 hex digits.
+    (:data:`opnet.matching.MAP_VERSION`, pyFM's), of the 2k/5k models'
+    (:func:`~opnet.data.anny_adapter.model_code_version`) and ``k``; 12 hex digits.
     """
     from importlib.metadata import version
 
     from ..matching import MAP_VERSION
+    from .anny_adapter import model_code_version
 
-    h = hashlib.sha256(f"{_FORMAT}-{MAP_VERSION}-{version('pyfmaps')}-{k}".encode())
+    h = hashlib.sha256(f"{_FORMAT}-{MAP_VERSION}-{version('pyfmaps')}-{model_code_version()}-{k}".encode())
     for a in (source.params["phenotypes"], source.params["controls"], source.base_basis.evecs):
         h.update(np.ascontiguousarray(a).data)
     return h.hexdigest()[:12]

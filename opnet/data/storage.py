@@ -83,6 +83,16 @@ class Collection:
     params: dict = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
 
+    def __post_init__(self):
+        if not isinstance(self.base_basis, Eigenbasis):
+            raise TypeError(
+                f"base_basis must be an opnet.Eigenbasis, got {type(self.base_basis).__name__} (Collection's fields "
+                "are vertices, faces, operators, split, subcollection, subject, base_basis, ...: pass them by name)."
+            )
+        lengths = {f: len(getattr(self, f)) for f in ("vertices", "operators", "split", "subcollection", "subject")}
+        if len(set(lengths.values())) != 1:
+            raise ValueError(f"a collection's per-shape arrays must have one length each, got {lengths}.")
+
     def __len__(self) -> int:
         return len(self.vertices)
 
@@ -93,16 +103,18 @@ class Collection:
         return np.flatnonzero(self.split == split)
 
     def sequence(self, subject: str, motion: str | None = None) -> np.ndarray:
-        """Indices of one subject's shapes, in stored (frame) order; with ``motion``, only those of its
-        sub-collection ``"<subject>/<motion>"`` (how the generated collections name a subject's sequence).
+        """Indices of one subject's shapes, in stored (frame) order; with ``motion``, only those of one of its
+        sub-collections, named in full or, in a generated collection, by its motion (``"walk"`` for
+        ``"subject03/walk"``).
         """
         mask = self.subject == subject
         if not mask.any():
             raise ValueError(f"no subject {subject!r} in this collection; it has {self.subjects()}.")
         if motion is not None:
-            mask &= self.subcollection == f"{subject}/{motion}"
-            if not mask.any():
-                raise ValueError(f"subject {subject!r} has no sequence {subject}/{motion}.")
+            own = self.subcollection[mask]
+            if not np.isin([motion, f"{subject}/{motion}"], own).any():
+                raise ValueError(f"subject {subject!r} has no sequence {motion!r}; it has {sorted(set(own))}.")
+            mask &= np.isin(self.subcollection, [motion, f"{subject}/{motion}"])
         return np.flatnonzero(mask)
 
     def subjects(self, split: str | None = None) -> list[str]:
@@ -116,7 +128,7 @@ class Collection:
 
     def subset(self, indices) -> Collection:
         """Shapes ``indices`` (distinct, in that order) as a collection of their own: vertices, operators, splits,
-        sub-collections and parameters are taken; the evaluation subset keeps those of its shapes that are.
+        sub-collections, subjects and parameters are taken; the evaluation subset keeps those of its shapes that are.
         """
         idx = np.asarray(indices)
         if idx.ndim != 1 or (idx.size and idx.dtype.kind not in "iu"):
@@ -258,9 +270,11 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
             raise CollectionError(f"the manifest {manifest_path} is corrupt; {fix}.") from None
         if not isinstance(manifest, dict) or "data" not in manifest:
             raise CollectionError(f"the manifest {manifest_path} is not an opnet manifest; {fix}.")
-        if manifest.get("format_version") != FORMAT_VERSION:
+        if manifest.get("format_version") not in (2, FORMAT_VERSION):  # 2: no subject array, derived below
             raise CollectionError(
-                f"{stem} has format {manifest.get('format_version')}, this opnet reads {FORMAT_VERSION}; {fix}."
+                f"{stem} has format {manifest.get('format_version')}, this opnet reads 2 and {FORMAT_VERSION}; "
+                "make it again with the function that made it (load_collection(..., rebuild=True), "
+                "mapped_collection(..., rebuild=True), or load_folder and save_collection)."
             )
         for key, value in (expected_meta or {}).items():
             if manifest.get(key) != value:
@@ -295,11 +309,14 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
             f"({type(exc).__name__}: {str(exc)[:200]}); {fix}."
         ) from None
     params = {k[len("param_") :]: data.pop(k) for k in list(data) if k.startswith("param_")}
-    if manifest.get("channels") != list(KINDS):
+    if manifest.get("channels", list(KINDS)) != list(KINDS):  # format 2 before channels were recorded: KINDS
         raise CollectionError(
             f"{stem} stores its operators in the channel order {manifest['channels']}, this opnet "
             f"reads {list(KINDS)}; {fix}."
         )
+    if "subject" not in data:  # format 2: a generated collection names its sequences "<subject>/<motion>"
+        sub = data["subcollection"]
+        data["subject"] = sub if manifest.get("preset") == "folder" else np.array([s.split("/")[0] for s in sub])
     meta = {k: v for k, v in manifest.items() if k not in ("sha256", "shapes", "format_version", "data", "channels")}
     return Collection(
         data["vertices"],
