@@ -22,6 +22,11 @@ __all__ = [
     "plot_ablation",
     "plot_interpolations",
     "plot_analogies",
+    "SPLIT_COLOURS",
+    "plot_split_matrix",
+    "plot_shape_variety",
+    "plot_operator_drift",
+    "plot_error_histograms",
 ]
 
 
@@ -417,5 +422,251 @@ def plot_ablation(table, rows, columns, *, title="d_R on test (×10⁻⁴)", ax=
     ax.set_yticks(range(len(rows)), rows)
     ax.set_title(title)
     fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
+    fig.tight_layout()
+    return fig
+
+
+#: The colour of each split in :func:`plot_split_matrix` and :func:`plot_shape_variety`.
+SPLIT_COLOURS = {"train": "#90a4ae", "val": "#ffb74d", "test": "#e53935", "test_subjects": "#8e24aa"}
+
+
+def _figure_and_axes(ax, figsize):
+    """``(figure, ax)``: a new figure of ``figsize`` inches when ``ax`` is None, else ``ax``'s own."""
+    plt = require("matplotlib.pyplot", "opnet.plotting")
+
+    if ax is None:
+        fig, ax = plt.subplots(figsize=figsize)
+        return fig, ax
+    return ax.figure, ax
+
+
+def _motions(collection) -> np.ndarray:
+    """``(N,)`` str: each shape's motion, ``params["motion"]``, else its sub-collection's name after the last ``/``."""
+    if "motion" in collection.params:
+        return np.asarray(collection.params["motion"]).astype(str)
+    return np.array([str(s).rpartition("/")[2] for s in collection.subcollection])
+
+
+def plot_split_matrix(collection, *, motions=None, ax=None):
+    """Which (subject, motion) sequences each split holds: one row per subject, one column per motion.
+
+    Parameters
+    ----------
+    collection : opnet.data.Collection
+        Rows: ``collection.subjects()``. Columns: the motions of ``params["motion"]`` ``(N,)`` (for a collection
+        without one, the part of each sub-collection's name after its last ``/``).
+    motions : list of str, optional
+        The columns, in this order (default: every motion, in the order the collection first lists them).
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Cell ``(subject, motion)`` holds the split of that sequence's shapes as its index in ``SPLIT_COLOURS``
+        (``0`` train, ``1`` val, ``2`` test, ``3`` test_subjects; NaN, blank, where the subject has no such
+        sequence), coloured as ``SPLIT_COLOURS`` says, with a legend.
+    """
+    plt = require("matplotlib.pyplot", "opnet.plotting")
+
+    names = collection.subjects()
+    motion = _motions(collection)
+    columns = list(dict.fromkeys(motion.tolist())) if motions is None else list(motions)
+    codes = {split: c for c, split in enumerate(SPLIT_COLOURS)}
+    row, col = {s: i for i, s in enumerate(names)}, {m: j for j, m in enumerate(columns)}
+    table = np.full((len(names), len(columns)), np.nan)
+    for s, m, split in zip(collection.subject.tolist(), motion.tolist(), collection.split.tolist()):
+        if m in col:
+            table[row[s], col[m]] = codes[split]
+    fig, ax = _figure_and_axes(ax, (max(4.0, 0.45 * len(columns) + 3.5), 0.3 * len(names) + 1.6))
+    cmap = plt.matplotlib.colors.ListedColormap(list(SPLIT_COLOURS.values()))
+    ax.imshow(table, cmap=cmap, vmin=-0.5, vmax=len(codes) - 0.5, aspect="auto", interpolation="nearest")
+    ax.set_xticks(range(len(columns)), columns, rotation=60, ha="right")
+    ax.set_yticks(range(len(names)), names)
+    ax.legend(
+        handles=[plt.matplotlib.patches.Patch(color=c, label=s) for s, c in SPLIT_COLOURS.items()],
+        bbox_to_anchor=(1.01, 1),
+        loc="upper left",
+    )
+    ax.set_title("which (subject, motion) sequences are held out")
+    fig.tight_layout()
+    return fig
+
+
+def plot_shape_variety(
+    collection,
+    *,
+    parameters: str = "phenotypes",
+    names=None,
+    splits=("train", "test", "test_subjects"),
+    bins: int = 15,
+    scale: float = 100.0,
+    unit: str = "cm",
+):
+    """Histograms of how a collection varies: each subject parameter, and every shape's distance to the base.
+
+    Parameters
+    ----------
+    collection : opnet.data.Collection
+    parameters : str
+        The key of ``collection.params`` holding a ``(N, p)`` array of per-shape subject parameters (default the
+        ``anny`` phenotypes in [0, 1]); one panel per column, counting each subject once (its first shape's
+        values). Skipped when the collection has no such entry.
+    names : list of p str, optional
+        The panels' titles (default: :data:`opnet.data.subjects.PHENOTYPES` for six phenotypes, else
+        ``"phenotypes[j]"``).
+    splits : tuple of str
+        The splits whose distances to the base are drawn, one translucent histogram each, in ``SPLIT_COLOURS``.
+    bins : int
+        Bins per histogram.
+    scale, unit : float, str
+        The distances' unit: the collection's length unit × ``scale`` (metres × 100 = cm).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        ``p + 1`` panels; the last one is ``√d_R`` (eq. 9) of every shape of ``splits`` against the base, the
+        root-mean-square vertex distance after rigid alignment, in ``unit``.
+    """
+    from .data.subjects import PHENOTYPES
+    from .metrics import d_R
+
+    plt = require("matplotlib.pyplot", "opnet.plotting")
+
+    values = collection.params.get(parameters)
+    if values is not None:
+        first = np.unique(collection.subject, return_index=True)[1]  # one row per subject
+        values = np.asarray(values, dtype=float).reshape(len(collection), -1)[first]
+    p = 0 if values is None else values.shape[1]
+    if names is None:
+        names = (
+            PHENOTYPES
+            if parameters == "phenotypes" and p == len(PHENOTYPES)
+            else [f"{parameters}[{j}]" for j in range(p)]
+        )
+    fig, axes = plt.subplots(
+        1, p + 1, figsize=(2.3 * p + 3.6, 2.8), squeeze=False, gridspec_kw=dict(width_ratios=[1] * p + [1.6])
+    )
+    axes = axes[0]
+    for j in range(p):
+        axes[j].hist(values[:, j], bins=bins, color="#607d8b")
+        axes[j].set_title(names[j])
+    for ax in axes:
+        ax.yaxis.set_major_locator(plt.matplotlib.ticker.MaxNLocator(integer=True))
+    axes[0].set_ylabel("subjects" if p else "shapes")
+    base = collection.base_basis.mesh.vertices
+    V = np.asarray(collection.vertices, dtype=np.float64)
+    rms = scale * np.sqrt(d_R(np.broadcast_to(base, V.shape), V))
+    shown = np.isin(collection.split, splits)
+    edges = np.histogram_bin_edges(rms[shown] if shown.any() else rms, bins=bins)  # shared by the splits
+    for split in splits:
+        axes[-1].hist(
+            rms[collection.split == split], bins=edges, alpha=0.6, color=SPLIT_COLOURS.get(split), label=split
+        )
+    axes[-1].set_title(f"RMS distance to base ({unit})")
+    if p:
+        axes[-1].set_ylabel("shapes")
+    axes[-1].legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def plot_operator_drift(collection, indices, *, x=None, xlabel=None, ax=None):
+    """How far each shape difference is from the identity along a sequence of shapes (e.g. one motion).
+
+    Parameters
+    ----------
+    collection : opnet.data.Collection
+        Its ``operators`` ``(N, 3, k, k)`` (area, conformal, extrinsic, as :data:`opnet.KINDS`).
+    indices : (T,) int array
+        The shapes, in order (e.g. ``collection.sequence("subject00", "arm_raise")``).
+    x : (T,) array, optional
+        Their abscissae (default: ``params["frame"]`` when the collection has it, else ``0 … T − 1``).
+    xlabel : str, optional
+        The abscissa's label (default ``"frame"``, or ``"shape"`` without frames).
+    ax : matplotlib.axes.Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One line per kind: ``‖D − I‖_F`` on the non-constant block (the operator without its first row and
+        column, those of the constant function), dimensionless.
+    """
+    from .shape_difference import KINDS
+
+    indices = np.asarray(indices)
+    frames = "frame" in collection.params
+    if x is None:
+        x = np.asarray(collection.params["frame"])[indices] if frames else np.arange(len(indices))
+    D = np.asarray(collection.operators[indices], dtype=np.float64)[:, :, 1:, 1:]
+    drift = np.linalg.norm(D - np.eye(D.shape[-1]), axis=(-2, -1))  # (T, 3)
+    fig, ax = _figure_and_axes(ax, (6, 3.2))
+    for c, kind in enumerate(KINDS[: D.shape[1]]):
+        ax.plot(x, drift[:, c], "o-", label=kind)
+    if np.issubdtype(np.asarray(x).dtype, np.integer):  # frames: no ticks between them
+        ax.xaxis.set_major_locator(require("matplotlib.ticker", "opnet.plotting").MaxNLocator(integer=True))
+    ax.set_xlabel(xlabel or ("frame" if frames else "shape"))
+    ax.set_ylabel("‖D − I‖ (non-constant block)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    return fig
+
+
+def plot_error_histograms(
+    errors: dict,
+    *,
+    label: str = "d_R on test (×10⁻⁴ m²)",
+    scale: float = 1e4,
+    log: bool = True,
+    bins: int = 30,
+    ax=None,
+):
+    """Overlaid histograms of per-shape errors, one per method, on shared bins.
+
+    Parameters
+    ----------
+    errors : dict str → (N_m,) array
+        Per-shape errors of each method, e.g. ``{"OperatorNet": err["d_R"], "NN": err_nn["d_R"]}`` with ``d_R``
+        in m² (:func:`opnet.evaluate.shape_errors`).
+    label : str
+        The abscissa's label, with the unit after ``scale``.
+    scale : float
+        Multiplies the errors before binning (1e4: m² → the paper's ×10⁻⁴ m²).
+    log : bool
+        Logarithmic bins and axis (errors spread over orders of magnitude); non-positive errors are left out.
+    bins : int
+        Number of bins, shared by all methods.
+    ax : matplotlib.axes.Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One translucent histogram per method (in order, colours ``C0``, ``C1``, …) counting shapes, with a legend.
+    """
+    if not errors:
+        raise ValueError("errors is empty: give at least one name → (N,) array.")
+    scaled = {name: scale * np.asarray(e, dtype=np.float64).ravel() for name, e in errors.items()}
+    if log:
+        scaled = {name: e[e > 0] for name, e in scaled.items()}
+    pooled = np.concatenate(list(scaled.values()))
+    if pooled.size == 0:
+        raise ValueError("no errors to draw" + (" (log=True leaves out the non-positive ones)." if log else "."))
+    lo, hi = float(pooled.min()), float(pooled.max())
+    if log:
+        lo, hi = (lo / 1.5, hi * 1.5) if lo == hi else (lo, hi)
+        edges = np.logspace(np.log10(lo), np.log10(hi), bins + 1)
+        edges[[0, -1]] = lo, hi  # exactly: 10 ** log10(x) may round below the largest error and drop it
+    else:
+        lo, hi = (lo - 0.5, hi + 0.5) if lo == hi else (lo, hi)
+        edges = np.linspace(lo, hi, bins + 1)
+    fig, ax = _figure_and_axes(ax, (7, 3))
+    for name, e in scaled.items():
+        ax.hist(e, bins=edges, alpha=0.6, label=f"{name} (median {np.median(e):.3g})")
+    if log:
+        ax.set_xscale("log")
+    ax.set_xlabel(label)
+    ax.set_ylabel("shapes")
+    ax.legend(fontsize=8)
     fig.tight_layout()
     return fig

@@ -6,6 +6,7 @@ matplotlib.use("Agg")
 
 import numpy as np  # noqa: E402
 
+import opnet  # noqa: E402
 from opnet.plotting import plot_operators  # noqa: E402
 
 
@@ -18,3 +19,92 @@ def test_the_colour_range_skips_the_constant_mode_and_says_so():
     assert any("constant function" in t.get_text() for t in fig.texts)
     whole = plot_operators([D], skip_constant=False)
     assert whole.axes[0].images[0].get_clim() == (-1.0, 1.0) and not whole.texts
+
+
+# ---- collection figures: what each helper draws, on toy capsules (no body model) ----
+
+import pytest  # noqa: E402
+from test_collections import toy_collection  # noqa: E402
+
+from opnet.plotting import (  # noqa: E402
+    SPLIT_COLOURS,
+    plot_error_histograms,
+    plot_operator_drift,
+    plot_shape_variety,
+    plot_split_matrix,
+)
+
+
+@pytest.fixture(scope="module")
+def toy():
+    """36 capsules: 4 subjects × 3 motions ("group": bend, bulge, both) × 3 frames, with per-subject parameters."""
+    coll = toy_collection()
+    subject = np.array([int(s[-2:]) for s in coll.subject])
+    coll.params["phenotypes"] = np.stack([subject / 4, 1 - subject / 4], axis=1)
+    return coll
+
+
+def _bar_counts(ax):
+    return [sum(p.get_height() for p in bars) for bars in ax.containers]
+
+
+def test_the_split_matrix_holds_each_sequence_split(toy):
+    fig = plot_split_matrix(toy)
+    table = fig.axes[0].images[0].get_array()
+    subjects, motions = toy.subjects(), ["bend", "bulge", "both"]  # the motions in the order the collection has them
+    assert table.shape == (len(subjects), len(motions))
+    codes = list(SPLIT_COLOURS)
+    for i, s in enumerate(subjects):
+        for j, m in enumerate(motions):
+            assert codes[int(table[i, j])] == toy.split[toy.sequence(s, m)][0]
+    assert [t.get_text() for t in fig.axes[0].get_xticklabels()] == motions
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == codes
+    # a chosen subset of columns, and a motion that no subject has stays blank
+    fig = plot_split_matrix(toy, motions=["both", "walk"])
+    table = fig.axes[0].images[0].get_array()
+    assert table.shape == (len(subjects), 2) and np.isnan(table[:, 1].filled(np.nan)).all()
+    assert codes[int(table[0, 0])] == toy.split[toy.sequence(subjects[0], "both")][0]
+
+
+def test_the_variety_histograms_count_subjects_and_shapes(toy):
+    fig = plot_shape_variety(toy, names=["a", "b"], splits=("train", "test"))
+    assert [ax.get_title() for ax in fig.axes] == ["a", "b", "RMS distance to base (cm)"]
+    assert _bar_counts(fig.axes[0]) == [len(toy.subjects())]  # each subject once
+    n_train, n_test = (np.sum(toy.split == s) for s in ("train", "test"))
+    assert _bar_counts(fig.axes[-1]) == [n_train, n_test]
+    # without subject parameters only the distances are drawn
+    bare = plot_shape_variety(toy, parameters="missing")
+    assert len(bare.axes) == 1 and sum(_bar_counts(bare.axes[0])) == sum(
+        np.sum(toy.split == s) for s in ("train", "test", "test_subjects")
+    )
+
+
+def test_the_operator_drift_is_the_distance_to_the_identity(toy):
+    seq = toy.sequence("subject01", "both")
+    fig = plot_operator_drift(toy, seq, x=[1, 2, 3], xlabel="frame of both")
+    lines = fig.axes[0].get_lines()
+    assert [line.get_label() for line in lines] == list(opnet.KINDS)
+    for c, line in enumerate(lines):
+        D = toy.operators[seq, c, 1:, 1:].astype(float)
+        expected = [np.linalg.norm(d - np.eye(len(d))) for d in D]
+        np.testing.assert_allclose(line.get_ydata(), expected, rtol=1e-12)
+        assert list(line.get_xdata()) == [1, 2, 3]
+    assert fig.axes[0].get_xlabel() == "frame of both"
+    # the frames of the sequence deform the capsule more and more
+    assert np.all(np.diff(lines[0].get_ydata()) > 0)
+
+
+def test_the_error_histograms_share_log_bins_and_count_every_shape():
+    rng = np.random.default_rng(0)
+    errors = {"net": 10 ** rng.uniform(-6, -4, 50), "NN": 10 ** rng.uniform(-4, -3, 20)}
+    fig = plot_error_histograms(errors, bins=12)
+    ax = fig.axes[0]
+    assert ax.get_xscale() == "log" and _bar_counts(ax) == [50, 20]
+    edges = [[p.get_x() for p in bars] for bars in ax.containers]
+    assert edges[0] == edges[1] and len(edges[0]) == 12  # one set of bins for both
+    assert edges[0][0] == pytest.approx(1e4 * min(e.min() for e in errors.values()))
+    assert [t.get_text().split(" (")[0] for t in ax.get_legend().get_texts()] == ["net", "NN"]
+    linear = plot_error_histograms({"a": [0.0, 1e-4, 2e-4]}, log=False, bins=4)
+    assert linear.axes[0].get_xscale() == "linear" and _bar_counts(linear.axes[0]) == [3]
+    with pytest.raises(ValueError, match="non-positive"):
+        plot_error_histograms({"a": [0.0]})
