@@ -17,6 +17,9 @@ generated from. On disk, a collection stored under the path ``stem`` is two file
     the manifest: format and generator versions, name, preset, resolution, seed, k, the
     shapes of the arrays, the operators' channel order, the data file's name and its full SHA-256.
 
+Format 2 (before the ``subject`` array) is read too: each shape's subject is then its sub-collection's name up to
+the ``/`` (a folder collection's: the whole sub-collection), as the generators named them.
+
 The manifest is the commit point: the data is written under a temporary name and renamed,
 then the manifest is written under a temporary name and renamed over the old one, and only
 then are older data files removed. A reader therefore sees either the previous complete
