@@ -2,7 +2,8 @@
 #   make run    executes the notebooks at a small preset into build/ (notebooks + HTML)
 #   make test   runs the unit tests and the notebooks (nbval), and builds the documentation site
 # Both set OPNET_STATIC_WIDGETS=1: no kernel drives the widgets there, so notebooks show pictures instead.
-#   make docs   the documentation site into build/docs/ (warnings are errors, every reference must resolve)
+#   make docs   the documentation site into build/docs/ (warnings are errors, every reference must resolve;
+#               Python >= 3.11, and every extra: the API pages import the modules)
 #   make reproduce PRESET=default   Table 1 + ablation into build/reproduce-$(PRESET) (results.json/md, figures)
 PYTHON ?= python3
 VENV   ?= .venv

@@ -647,11 +647,12 @@ def plot_error_histograms(
     if not errors:
         raise ValueError("errors is empty: give at least one name → (N,) array.")
     scaled = {name: scale * np.asarray(e, dtype=np.float64).ravel() for name, e in errors.items()}
-    if log:
-        scaled = {name: e[e > 0] for name, e in scaled.items()}
+    kept = {name: np.isfinite(e) & (e > 0 if log else True) for name, e in scaled.items()}
+    dropped = {name: int((~k).sum()) for name, k in kept.items()}  # NaN (e.g. d_V of open meshes), and ≤ 0 on log
+    scaled = {name: e[kept[name]] for name, e in scaled.items()}
     pooled = np.concatenate(list(scaled.values()))
     if pooled.size == 0:
-        raise ValueError("no errors to draw" + (" (log=True leaves out the non-positive ones)." if log else "."))
+        raise ValueError("no finite errors to draw" + (" (log=True leaves out the non-positive ones)." if log else "."))
     lo, hi = float(pooled.min()), float(pooled.max())
     if log:
         lo, hi = (lo / 1.5, hi * 1.5) if lo == hi else (lo, hi)
@@ -661,8 +662,9 @@ def plot_error_histograms(
         lo, hi = (lo - 0.5, hi + 0.5) if lo == hi else (lo, hi)
         edges = np.linspace(lo, hi, bins + 1)
     fig, ax = _figure_and_axes(ax, (7, 3))
-    for name, e in scaled.items():
-        ax.hist(e, bins=edges, alpha=0.6, label=f"{name} (median {np.median(e):.3g})")
+    for i, (name, e) in enumerate(scaled.items()):
+        left_out = f", {dropped[name]} left out" if dropped[name] else ""
+        ax.hist(e, bins=edges, alpha=0.6, color=f"C{i}", label=f"{name} (median {np.median(e):.3g}{left_out})")
     if log:
         ax.set_xscale("log")
     ax.set_xlabel(label)

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-for _module in ("sphinx", "myst_nb", "pydata_sphinx_theme", "numpydoc", "latex2mathml"):
-    pytest.importorskip(_module, reason="the docs extra is not installed: pip install -e '.[docs]'")
+if sys.version_info < (3, 11):  # Sphinx 9, myst-nb and the theme need 3.11: the docs extra installs none there
+    pytest.skip("the documentation site needs Python 3.11 or later", allow_module_level=True)
 
 ROOT = Path(__file__).resolve().parents[1]
 REMOTE_ASSET = re.compile(r"<(?:script|link|img)\b[^>]*\b(?:src|href)=\"(?:https?:)?//[^\"]+\"")
