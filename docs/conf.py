@@ -131,7 +131,7 @@ def _public_alias(app, env, node, contnode):
         return None
     target = node["reftarget"].lstrip("~.")
     module, cls = node.get("py:module"), node.get("py:class")
-    candidates = [f"{module}.{cls}.{target}", f"{module}.{target}"] if module and cls else []
+    candidates = [f"{module}.{cls}.{target}"] if module and cls else []
     candidates += [f"{module}.{target}"] if module else []
     candidates.append(target)
     for candidate in candidates:

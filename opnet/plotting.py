@@ -361,12 +361,7 @@ def plot_history(histories: dict, *, ax=None):
 
     ``histories``: dict label → the history returned by :func:`opnet.train.fit`. Returns the figure.
     """
-    plt = require("matplotlib.pyplot", "opnet.plotting")
-
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(7, 3.6))
-    else:
-        fig = ax.figure
+    fig, ax = _figure_and_axes(ax, (7, 3.6))
     for i, (label, hist) in enumerate(histories.items()):
         epochs = [h["epoch"] for h in hist]
         color = f"C{i}"
@@ -405,13 +400,8 @@ def plot_refinement_curves(curves: dict, *, axes=None):
 
 def plot_ablation(table, rows, columns, *, title="d_R on test (×10⁻⁴)", ax=None):
     """Heat map of an ablation table ``(len(rows), len(columns))`` with its values written in the cells."""
-    plt = require("matplotlib.pyplot", "opnet.plotting")
-
     table = np.asarray(table, dtype=float)
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(1.1 * len(columns) + 2, 0.6 * len(rows) + 1.5))
-    else:
-        fig = ax.figure
+    fig, ax = _figure_and_axes(ax, (1.1 * len(columns) + 2, 0.6 * len(rows) + 1.5))
     im = ax.imshow(table, cmap="viridis_r", aspect="auto")
     lo, hi = np.nanmin(table), np.nanmax(table)
     for (i, j), v in np.ndenumerate(table):
@@ -555,8 +545,13 @@ def plot_shape_variety(
         ax.yaxis.set_major_locator(plt.matplotlib.ticker.MaxNLocator(integer=True))
     axes[0].set_ylabel("subjects" if p else "shapes")
     base = collection.base_basis.mesh.vertices
-    V = np.asarray(collection.vertices, dtype=np.float64)
-    rms = scale * np.sqrt(d_R(np.broadcast_to(base, V.shape), V))
+    chunks = np.array_split(np.arange(len(collection)), max(1, len(collection) // 1024))  # bounded float64 copies
+    rms = np.concatenate(
+        [
+            scale * np.sqrt(d_R(np.broadcast_to(base, (len(c), *base.shape)), collection.vertices[c].astype(float)))
+            for c in chunks
+        ]
+    )
     shown = np.isin(collection.split, splits)
     edges = np.histogram_bin_edges(rms[shown] if shown.any() else rms, bins=bins)  # shared by the splits
     for split in splits:
