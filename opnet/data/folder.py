@@ -79,10 +79,10 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
                     f"{table}: sub-collection {sc!r} spans the splits {sorted(set(split[subcollection == sc]))}; "
                     "a sub-collection is held out whole, so give all its shapes one split."
                 )
-        unseen = set(subject[split == "test_subjects"])
-        if unseen & set(subject[split != "test_subjects"]):
+        both = set(subject[split == "test_subjects"]) & set(subject[split != "test_subjects"])
+        if both:
             raise CollectionError(
-                f"{table}: the subjects {sorted(unseen & set(subject[split != 'test_subjects']))} have shapes in "
+                f"{table}: the subjects {sorted(both)} have shapes in "
                 "'test_subjects' and in other splits; the test_subjects split holds subjects never seen in training, "
                 "so give all their shapes that split."
             )

@@ -114,10 +114,10 @@ class Collection:
         if not mask.any():
             raise ValueError(f"no subject {subject!r} in this collection; it has {self.subjects()}.")
         if motion is not None:
-            own = self.subcollection[mask]
-            if not np.isin([motion, f"{subject}/{motion}"], own).any():
-                raise ValueError(f"subject {subject!r} has no sequence {motion!r}; it has {sorted(set(own))}.")
             mask &= np.isin(self.subcollection, [motion, f"{subject}/{motion}"])
+            if not mask.any():
+                own = sorted(set(self.subcollection[self.subject == subject]))
+                raise ValueError(f"subject {subject!r} has no sequence {motion!r}; it has {own}.")
         return np.flatnonzero(mask)
 
     def subjects(self, split: str | None = None) -> list[str]:
