@@ -56,7 +56,7 @@ numpydoc_xref_param_type = False
 # time: they are shown as written, unlinked.
 nitpick_ignore_regex = [
     (r"py:.*", r"(np|numpy|scipy|sp|torch|nn|trimesh|pyvista|pv|matplotlib|plt|ipywidgets|joblib|anny)(\..*)?"),
-    (r"py:.*", r"(pathlib|os|typing|collections|dataclasses)\..*"),  # the standard library's, in type hints
+    (r"py:.*", r"(pathlib|os|typing|collections|dataclasses|argparse)\..*"),  # the standard library's, in type hints
 ]
 
 # -- HTML (pydata-sphinx-theme; fonts and icons are bundled with the theme) ---------------------------------------

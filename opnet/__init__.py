@@ -14,15 +14,18 @@ Public API::
     D     = opnet.encode(any_mesh, base_basis, fmap="computed")   # (3, k, k) through a computed map (pyFM)
     X     = opnet.decode(net, D)                 # (n, 3) on the base's triangulation
     net   = opnet.OperatorNet(n_vertices, k=60)  # (B, 3, k, k) -> (B, n, 3); loss: opnet.rigid_alignment_loss
-    net, history = opnet.train.fit(collection, channels=KINDS, depth=1, epochs=50, run_dir="runs/x")
+    coll  = opnet.data.load_collection("humans", "quick").with_kinds(["area", "extrinsic", MyIP()])  # any channels
+    net, history = opnet.train.fit(coll, channels=["area", MyIP()], depth=1, epochs=50, run_dir="runs/x")
     rows  = opnet.evaluate.evaluate(collection, [opnet.evaluate.operatornet_method(net, collection)])
+    table = opnet.ablation(collection, channel_sets=[["area"], ["area", MyIP()]], depths=[1, 2], epochs=20)
     rows  = opnet.reproduce.reproduce("quick", "reproduce-quick")   # Table 1 + ablation -> results.json/md
     X     = opnet.reconstruct(operators, base_basis, init="base" | vertices)  # operator matching (refinement)
     Dt    = opnet.torch_ops.ShapeDifferences(base_basis)(X_tensor)            # differentiable in X (torch)
     alg   = opnet.apps.operatornet_algebra(net, collection)   # .interpolate(i, j, t), .analogy(a, b, c) as shapes
     opnet.widgets.show(opnet.widgets.interpolation_explorer(collection, [alg]))   # JupyterLab widgets
 
-The modules ``train``, ``evaluate`` (home of ``decode``), ``reproduce``, ``model``, ``torch_ops``, ``geometric``
+The modules ``train``, ``evaluate`` (home of ``decode``), ``experiments`` (home of ``ablation``), ``reproduce``,
+``model``, ``torch_ops``, ``geometric``
 (home of ``reconstruct``), ``apps`` and ``widgets`` use torch or the notebook stack, so they load on first use.
 """
 
@@ -33,15 +36,18 @@ from .gram import gram_matrix, recover_embedding
 from .inner_products import (
     INNER_PRODUCTS,
     AreaInnerProduct,
+    ChannelError,
     ConformalInnerProduct,
     ExtrinsicInnerProduct,
     InnerProduct,
+    channel_digest,
     get_inner_product,
+    register_inner_product,
 )
 from .matching import SurfaceMap, compute_map, encode
 from .mesh import Mesh, MeshError, MeshWarning, load_mesh
 from .metrics import d_E, d_R, d_V, kabsch, mesh_volume, rigid_align
-from .shape_difference import KINDS, distortion_function, pinv_psd, shape_difference, shape_differences
+from .shape_difference import CHANNEL_SETS, KINDS, distortion_function, pinv_psd, shape_difference, shape_differences
 from .spectral import Eigenbasis, cotan_edge_weights, eigenbasis, vertex_areas
 
 __version__ = "0.1.0"
@@ -67,7 +73,11 @@ __all__ = [
     "ExtrinsicInnerProduct",
     "INNER_PRODUCTS",
     "get_inner_product",
+    "register_inner_product",
+    "channel_digest",
+    "ChannelError",
     "KINDS",
+    "CHANNEL_SETS",
     "shape_difference",
     "shape_differences",
     "distortion_function",
@@ -96,13 +106,25 @@ __all__ = [
     "train",
     "evaluate",
     "reproduce",
+    "experiments",
+    "ablation",
     "torch_ops",
     "geometric",
     "apps",
     "widgets",
 ]
 
-_TORCH_MODULES = ("model", "train", "evaluate", "reproduce", "torch_ops", "geometric", "apps", "widgets")
+_TORCH_MODULES = (
+    "model",
+    "train",
+    "evaluate",
+    "reproduce",
+    "experiments",
+    "torch_ops",
+    "geometric",
+    "apps",
+    "widgets",
+)
 
 
 def __getattr__(name):  # import torch only when the network is asked for
@@ -113,6 +135,8 @@ def __getattr__(name):  # import torch only when the network is asked for
             return getattr(importlib.import_module(".model", __name__), name)
         if name == "decode":
             return importlib.import_module(".evaluate", __name__).decode
+        if name == "ablation":
+            return importlib.import_module(".experiments", __name__).ablation
         if name == "reconstruct":
             return importlib.import_module(".geometric", __name__).reconstruct
         if name in _TORCH_MODULES:

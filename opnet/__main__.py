@@ -7,20 +7,10 @@ import json
 import os
 import sys
 
-from .shape_difference import KINDS
-
-
-def _positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
-
 
 def _parser() -> argparse.ArgumentParser:
+    from .train.config import add_arguments
+
     p = argparse.ArgumentParser(
         prog="python -m opnet", description="OperatorNet: train, evaluate, reproduce the paper."
     )
@@ -48,49 +38,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     t.add_argument("--resolution", default=None, help="humans only: 1k (default), 2k or 5k vertices")
     t.add_argument("--data-seed", type=int, default=0, help="seed of the generated collection (default 0)")
-    t.add_argument(
-        "--channels",
-        default=None,
-        help="input operators, comma-separated subset of area,conformal,extrinsic, or a short name "
-        "(A+E+C, Area, Ext, Conf, A+E, A+C, E+C); default all three (OperatorNet only)",
-    )
-    t.add_argument(
-        "--depth", type=int, default=None, choices=[1, 2, 3, 4], help="convolution layers in OperatorNet's encoder (1)"
-    )
-    t.add_argument(
-        "--epochs", type=_positive, default=50, help="passes over the training split (50); more continues a run"
-    )
-    t.add_argument("--batch-size", type=_positive, default=32, help="shapes per step, global across processes (32)")
-    t.add_argument("--lr", type=float, default=1e-3, help="Adam learning rate (1e-3)")
-    t.add_argument("--seed", type=int, default=0, help="initialisation and shuffling seed (0)")
-    t.add_argument("--hidden", type=_positive, default=1024, help="width of the two hidden dense layers (1024)")
-    t.add_argument(
-        "--no-subtract-identity",
-        action="store_true",
-        help="feed the network D instead of D - I (the default subtracts the identity)",
-    )
-    t.add_argument(
-        "--variant",
-        default="paper",
-        choices=["paper", "ours"],
-        help="paper: the paper's network; ours: standardised inputs, a displacement from the base and a "
-        "one-cycle learning rate (README, 'our variant')",
-    )
-    t.add_argument(
-        "--schedule",
-        default=None,
-        choices=["constant", "onecycle"],
-        help="learning rate over the run (default: constant for paper, onecycle for ours)",
-    )
-    t.add_argument(
-        "--architecture",
-        default="operatornet",
-        choices=["operatornet", "pointnet"],
-        help="operatornet (default), or pointnet: the PointNet autoencoder baseline, which reads the "
-        "coordinates (same decoder, loss and checkpoints; --channels/--variant do not apply)",
-    )
-    t.add_argument("--points", type=_positive, default=None, help="pointnet: vertices the encoder reads (256)")
-    t.add_argument("--device", default="auto", help="auto (CUDA if present), cpu, cuda, cuda:N")
+    add_arguments(t)  # the hyper-parameters: one option per field of opnet.train.TrainConfig
     t.add_argument("--run-dir", required=True, help="folder for config.json, latest.pt, best.pt, history.json")
     t.add_argument("--restart", action="store_true", help="replace the run in --run-dir instead of resuming it")
     t.add_argument(
@@ -205,6 +153,22 @@ def _collection(args):
     )
 
 
+def _channels(coll, text: str) -> list:
+    """``--channels`` as a list of channels: names the collection holds stay names, the others are resolved (built-in,
+    registered, or ``module:Class`` imported); an unknown or unimportable one raises naming it.
+    """
+    from .data.channels import split_channels
+    from .inner_products import get_inner_product
+
+    out = []
+    for c in split_channels(text):
+        ip = c if isinstance(c, str) and c in coll.kinds else get_inner_product(c)
+        if not isinstance(ip, str) and ip.name in coll.kinds:
+            ip = coll.channel_names([ip])[0]  # held already: its implementation is checked, its name kept
+        out.append(ip)
+    return out
+
+
 def main(argv=None) -> int:
     """Run a command; opnet's own errors are printed as one line (exit status 1), not as a traceback."""
     from .data import CollectionError
@@ -223,36 +187,22 @@ def _run(args) -> int:
     from .data import load_collection, read_collection
 
     if args.command == "train":
-        from .train import fit, parse_channels
+        from .train import fit
+        from .train.config import config_from_args
 
-        try:
-            channels = None if args.channels is None else parse_channels(args.channels)
-        except ValueError as exc:
-            _parser().error(str(exc))
-        distributed = _init_distributed(args.device)
+        config = config_from_args(args)  # a bad value is refused before the collection is built
+        distributed = _init_distributed(config.device)
         try:
             if distributed and _rank() != 0:
-                _barrier()  # rank 0 builds the collection if it is missing, the others then read it
+                _barrier()  # rank 0 builds the collection (and new channels) if missing, the others then read them
             coll = _collection(args)
+            channels = None if config.channels is None else _channels(coll, config.channels)
+            if channels is not None:
+                coll = coll.with_kinds([*coll.kinds, *(c for c in channels if c not in coll.kinds)])
             if distributed and _rank() == 0:
                 _barrier()
             _, history = fit(
-                coll,
-                channels=channels,
-                depth=args.depth or 1,
-                epochs=args.epochs,
-                batch_size=args.batch_size,
-                lr=args.lr,
-                seed=args.seed,
-                device=args.device,
-                run_dir=args.run_dir,
-                resume=not args.restart,
-                hidden=args.hidden,
-                subtract_identity=not args.no_subtract_identity,
-                variant=args.variant,
-                schedule=args.schedule,
-                architecture=args.architecture,
-                n_points=args.points,
+                coll, **dict(config.as_kwargs(), channels=channels), run_dir=args.run_dir, resume=not args.restart
             )
         finally:
             if distributed:
@@ -273,10 +223,10 @@ def _run(args) -> int:
             operatornet_method,
             pointnet_method,
         )
-        from .train import _checkpoint_path, _model_from_checkpoint, _read_checkpoint, resolve_device
+        from .train import checkpoint_path, model_from_checkpoint, read_checkpoint, resolve_device
 
-        path = _checkpoint_path(args.run_dir)
-        ckpt = _read_checkpoint(path, map_location=resolve_device(args.device))  # read once
+        path = checkpoint_path(args.run_dir)
+        ckpt = read_checkpoint(path, map_location=resolve_device(args.device))  # read once
         d = ckpt["config"]["data"]
         if args.collection:
             coll = read_collection(args.collection)
@@ -287,11 +237,15 @@ def _run(args) -> int:
                 f"{args.run_dir} was trained on {d['name']!r}, not a generated collection: pass its "
                 "manifest with --collection PATH.json"
             )
-        net = _model_from_checkpoint(ckpt, path, coll, device=args.device)
+        specs = ckpt["config"].get("channel_specs", {})
+        wanted = [c["name"] for c in d.get("channels", []) if c["name"] not in coll.kinds]  # channels of the user's
+        if wanted:
+            coll = coll.with_kinds([*coll.kinds, *(specs.get(name) or name for name in wanted)])
+        net = model_from_checkpoint(ckpt, path, coll, device=args.device)
         if hasattr(net, "channels"):
             methods = [operatornet_method(net, coll), nearest_neighbour_method(coll, net.channels)]
         else:  # the PointNet autoencoder
-            methods = [pointnet_method(net, coll), nearest_neighbour_method(coll, KINDS)]
+            methods = [pointnet_method(net, coll), nearest_neighbour_method(coll)]
         rows = evaluate(coll, methods + [base_shape_method(coll)], TEST_SETS)
         print(_table(rows))
         if args.json:

@@ -39,9 +39,9 @@ import numpy as np
 from ._checks import check_int, is_integer, real_array
 from .algebra import analogy as operator_analogy
 from .algebra import interpolate as operator_interpolate
-from .evaluate import _OperatorIndex, _select, predict, shape_errors, summarize
+from .evaluate import OperatorIndex, predict, shape_errors, summarize
 from .metrics import d_E, d_R, rigid_align
-from .shape_difference import KINDS, shape_differences
+from .shape_difference import shape_differences
 
 __all__ = [
     "ShapeAlgebra",
@@ -74,7 +74,7 @@ class ShapeAlgebra:
     """Interpolation and analogy of shapes through a representation: ``decode(combine(encode(shapes)))``.
 
     ``encode``: vertices ``(B, n, 3)`` float64 → representations ``(B, ...)``; ``decode``: the inverse way.
-    ``space``: ``"operators"`` (``(B, 3, k, k)``, all of :data:`opnet.KINDS`, combined by ``scheme``) or
+    ``space``: ``"operators"`` (``(B, C, k, k)``, all of the collection's channels, combined by ``scheme``) or
     ``"latent"`` (codes ``(B, L)``, combined linearly). ``max_shapes``: the benchmarks evaluate a slow method
     on at most this many shapes; ``unrefined``: the method a refined one starts from (its rows then also hold
     ``d_R_before``). Build one with :func:`operatornet_algebra`, :func:`pointnet_algebra` or
@@ -171,7 +171,8 @@ def _as_shapes(collection, shapes) -> np.ndarray:
 
 def _operators(collection):
     basis = collection.base_basis
-    return lambda V: shape_differences(basis, V, KINDS, progress=False)
+    ips = collection.inner_products()  # the channels of a shape's representation: all of the collection's
+    return lambda V: shape_differences(basis, V, ips, progress=False)
 
 
 def operatornet_algebra(
@@ -195,7 +196,7 @@ def operatornet_algebra(
             f"operatornet_algebra needs a trained OperatorNet, got a {type(net).__name__} (for the PointNet "
             "autoencoder use pointnet_algebra)."
         )
-    chans = _select(net.channels)
+    chans = collection.channel_indices(net.channels)
     base_name = name or f"OperatorNet ({'mult.' if scheme == 'multiplicative' else 'linear'})"
     plain = ShapeAlgebra(
         base_name,
@@ -209,7 +210,6 @@ def operatornet_algebra(
     if refine is None:
         return plain
     from .geometric import reconstruct
-    from .train import parse_channels
 
     options = dict(refine)
     if {"init", "progress"} & set(options):
@@ -217,8 +217,8 @@ def operatornet_algebra(
             f"refine= sets options of opnet.reconstruct other than init and progress (the decoded "
             f"shape is the start; no bar per call), got {sorted({'init', 'progress'} & set(options))}."
         )
-    options["channels"] = parse_channels(options.get("channels", KINDS))
-    ref_chans = _select(options["channels"])
+    options["channels"] = collection.inner_products(options.get("channels", collection.kinds))
+    ref_chans = collection.channel_indices(options["channels"])
 
     def decode(R):
         return reconstruct(R[:, ref_chans], collection.base_basis, init=plain.decode(R), progress=False, **options)
@@ -255,13 +255,15 @@ def pointnet_algebra(net, collection, *, name: str = "PointNet AE") -> ShapeAlge
 
 
 def nearest_neighbour_algebra(
-    collection, channels=KINDS, *, scheme: str = "multiplicative", name: str | None = None
+    collection, channels=None, *, scheme: str = "multiplicative", name: str | None = None
 ) -> ShapeAlgebra:
     """Operators combined by the algebra (``scheme``), then the ``train`` shape with the nearest operators of
-    ``channels`` (Frobenius) is returned: the paper's NN, which can only answer with shapes it has seen.
+    ``channels`` (Frobenius; default all of the collection's) is returned: the paper's NN, which can only answer
+    with shapes it has seen.
     """
-    index = _OperatorIndex(collection, tuple(channels))
-    chans = _select(tuple(channels))
+    channels = collection.kinds if channels is None else channels
+    index = OperatorIndex(collection, channels)
+    chans = collection.channel_indices(channels)
     return ShapeAlgebra(
         name or "Nearest neighbour",
         collection,
@@ -276,11 +278,11 @@ def nearest_neighbour_algebra(
 # ground truth from the generator
 
 
-def _test_pool(collection):
+def ground_truth_pool(collection):
     """Unseen subjects' phenotypes ``(S, 6)`` and the ``test`` sequences' shapes (indices) and their sequence names."""
-    from .data.generators import _generated
+    from .data.generators import generated_name
 
-    _generated(collection)
+    generated_name(collection)
     subj_idx = collection.indices("test_subjects")
     pose_idx = collection.indices("test")
     if len(subj_idx) == 0 or len(pose_idx) == 0:
@@ -330,7 +332,7 @@ def analogy_quadruples(collection, kind: str = "pose", n: int = 100, *, seed: in
     if kind not in ANALOGY_KINDS:
         raise ValueError(f"kind must be one of {ANALOGY_KINDS}, got {kind!r}.")
     check_int("n", n)
-    subjects, pose_idx, sequences = _test_pool(collection)
+    subjects, pose_idx, sequences = ground_truth_pool(collection)
     if len(subjects) < 2 or len(set(sequences)) < 2:
         raise ValueError(
             f"analogies need two unseen subjects and two test sequences; this collection has "
@@ -389,7 +391,7 @@ def interpolation_paths(collection, kind: str = "pose", n_paths: int = 10, steps
         raise ValueError(f"kind must be one of {PATH_KINDS}, got {kind!r}.")
     check_int("n_paths", n_paths)
     check_int("steps", steps, minimum=2)
-    subjects, pose_idx, sequences = _test_pool(collection)
+    subjects, pose_idx, sequences = ground_truth_pool(collection)
     controls = collection.params["controls"]
     t = np.linspace(0, 1, steps)
     rng = np.random.default_rng([seed, PATH_KINDS.index(kind)])

@@ -30,7 +30,7 @@ from typing import Callable
 import numpy as np
 
 from ._checks import check_int, real_array
-from .inner_products import get_inner_products
+from .inner_products import ChannelError, InnerProduct, get_inner_product
 from .mesh import edge_face_counts
 from .metrics import d_E, d_R, d_V, rigid_align
 from .shape_difference import KINDS
@@ -41,10 +41,13 @@ __all__ = [
     "decode",
     "test_set_indices",
     "channel_label",
+    "channel_names",
+    "SETS",
     "predict",
     "operatornet_method",
     "pointnet_method",
     "nearest_neighbour",
+    "OperatorIndex",
     "nearest_neighbour_method",
     "base_shape_method",
     "geometric_method",
@@ -58,29 +61,45 @@ __all__ = [
 
 #: The test sets that :func:`evaluate` reports by default (this module's docstring says what each holds).
 TEST_SETS = ("eval_subset", "test", "test_subjects")
+#: Every set :func:`evaluate` can report on: the test sets, and ``"val"`` (where experiments are chosen).
+SETS = ("val", *TEST_SETS)
 _LABELS = {KINDS: "Int+Ext", ("area", "conformal"): "Int", ("extrinsic",): "Ext"}
+_SHORT = {"area": "Area", "conformal": "Conf", "extrinsic": "Ext"}
+
+
+def channel_names(channels) -> tuple[str, ...]:
+    """Names of ``channels`` (names as they are, inner products by their ``name``), without looking them up."""
+    if isinstance(channels, str):
+        from .data.channels import split_channels
+
+        channels = split_channels(channels)
+    return tuple(c if isinstance(c, str) else get_inner_product(c).name for c in channels)
 
 
 def channel_label(channels) -> str:
-    """The paper's name of an input combination: ``Int+Ext`` (all three), ``Int`` (area + conformal),
-    ``Ext`` (extrinsic), else the ablation's short name (``Area``, ``Conf``, ``A+E``, ``A+C``, ``E+C``).
+    """A display name of an input combination: the paper's ``Int+Ext`` (all three), ``Int`` (area + conformal),
+    ``Ext`` (extrinsic) or the ablation's short names (``Area``, ``Conf``, ``A+E``, ``A+C``, ``E+C``); with channels
+    of your own, their names joined by ``+`` (built-ins shortened: ``Area+my ip``). For display only: rows keep the
+    channels themselves in their ``channels`` field.
     """
-    from .train import CHANNEL_SETS, parse_channels
+    from .shape_difference import CHANNEL_SETS
 
-    channels = parse_channels(channels)
-    key = tuple(c for c in KINDS if c in channels)
-    if key in _LABELS:
-        return _LABELS[key]
-    return next(name for name, kinds in CHANNEL_SETS.items() if set(kinds) == set(key))
+    channels = channel_names(channels)
+    if set(channels) <= set(KINDS):
+        key = tuple(c for c in KINDS if c in channels)
+        if key in _LABELS:
+            return _LABELS[key]
+        return next(name for name, kinds in CHANNEL_SETS.items() if set(kinds) == set(key))
+    return "+".join(_SHORT.get(c, c) for c in channels)
 
 
 def test_set_indices(collection, test_set: str) -> np.ndarray:
-    """Shape indices of a test set: ``"eval_subset"`` (the 50-shape subset), ``"test"`` or ``"test_subjects"``."""
+    """Shape indices of a set: ``"eval_subset"`` (the 50-shape subset), ``"test"``, ``"test_subjects"`` or ``"val"``."""
     if test_set == "eval_subset":
         return np.asarray(collection.eval_subset)
-    if test_set in ("test", "test_subjects"):
+    if test_set in ("test", "test_subjects", "val"):
         return collection.indices(test_set)
-    raise ValueError(f"unknown test set {test_set!r}; use one of {TEST_SETS}.")
+    raise ValueError(f"unknown test set {test_set!r}; use one of {SETS}.")
 
 
 @dataclass
@@ -136,7 +155,9 @@ def decode(net, operators, kinds=KINDS) -> np.ndarray:
     if not hasattr(net, "channels") or not hasattr(net, "k"):
         raise TypeError(f"net must be an OperatorNet (opnet.train.load_model(run_dir)), got {type(net).__name__}.")
     ops = real_array("operators", operators, dtype=np.float32)
-    kinds = tuple(ip.name for ip in get_inner_products(kinds))
+    if isinstance(kinds, (str, InnerProduct)):
+        raise TypeError(f"kinds must be a sequence of channels, e.g. ({kinds!r},), not a single one.")
+    kinds = channel_names(kinds)
     single = ops.ndim == 3
     batch = ops[None] if single else ops
     if batch.ndim != 4 or batch.shape[1:] != (len(kinds), net.k, net.k):
@@ -148,21 +169,34 @@ def decode(net, operators, kinds=KINDS) -> np.ndarray:
     if missing:
         raise ValueError(
             f"the network reads {missing}, which the operators (channels {kinds}) do not hold; "
-            "encode them with kinds=net.channels or all of opnet.KINDS."
+            "encode them with kinds=net.channels."
         )
     out = _predict(net, batch[:, [kinds.index(c) for c in net.channels]])  # float32 already: no copy
     return out[0] if single else out
 
 
-def _select(channels) -> list[int]:
-    return [KINDS.index(c) for c in channels]
+def _network_operators(net, collection) -> np.ndarray:
+    """The collection's operators of a network's channels ``(N, C, k, k)``; refused when the network was trained on
+    another implementation of one of them (its ``channel_digests``, set by :func:`opnet.train.fit` and
+    :func:`opnet.train.load_model`).
+    """
+    ops = collection.operators_for(net.channels)
+    for name, digest in getattr(net, "channel_digests", {}).items():
+        here = collection.digests.get(name)
+        if None not in (digest, here) and digest != here:
+            raise ChannelError(
+                f"the network was trained on channel {name!r} computed by another implementation (digest {digest}) "
+                f"than this collection's ({here}); compute it with the class the network was trained with, or train "
+                "again."
+            )
+    return ops
 
 
 def operatornet_method(net, collection, name: str | None = None) -> Method:
     """OperatorNet decoding the collection's operators of its own channels."""
-    chans = _select(net.channels)
+    ops = _network_operators(net, collection)
     name = name or f"OperatorNet ({channel_label(net.channels)})"
-    return Method(name, lambda idx: predict(net, collection.operators[idx][:, chans]), tuple(net.channels), net.depth)
+    return Method(name, lambda idx: predict(net, ops[idx]), tuple(net.channels), net.depth)
 
 
 def pointnet_method(net, collection, name: str = "PointNet AE") -> Method:
@@ -170,11 +204,11 @@ def pointnet_method(net, collection, name: str = "PointNet AE") -> Method:
     return Method(name, lambda idx: predict(net, collection.vertices[idx]))
 
 
-class _OperatorIndex:
+class OperatorIndex:
     """The ``train`` shapes' stacked operators of some channels, for nearest-neighbour queries."""
 
     def __init__(self, collection, channels):
-        self.collection, self.chans = collection, _select(tuple(channels))
+        self.collection, self.chans = collection, collection.channel_indices(channels)
         self.train = collection.indices("train")
         self.A = collection.operators[self.train][:, self.chans].reshape(len(self.train), -1).astype(np.float64)
         self.a2 = np.einsum("ij,ij->i", self.A, self.A)
@@ -194,19 +228,22 @@ class _OperatorIndex:
         return self.train[np.argmin(self.a2[None, :] - 2 * B @ self.A.T, axis=1)]  # |a - b|² up to |b|²
 
 
-def nearest_neighbour(collection, indices, channels=KINDS, *, chunk: int = 512) -> np.ndarray:
+def nearest_neighbour(collection, indices, channels=None, *, chunk: int = 512) -> np.ndarray:
     """Index (into the collection) of the ``train`` shape whose operators are nearest, for each of ``indices``.
 
-    Distance: Frobenius norm of the difference of the stacked operators of ``channels``.
+    Distance: Frobenius norm of the difference of the stacked operators of ``channels`` (default all of the
+    collection's).
     """
-    return _OperatorIndex(collection, channels).query(indices, chunk)
+    return OperatorIndex(collection, collection.kinds if channels is None else channels).query(indices, chunk)
 
 
-def nearest_neighbour_method(collection, channels=KINDS, name: str | None = None) -> Method:
-    """The paper's NN baseline: retrieve the nearest training shape by operator distance."""
-    channels = tuple(channels)
+def nearest_neighbour_method(collection, channels=None, name: str | None = None) -> Method:
+    """The paper's NN baseline: retrieve the nearest training shape by operator distance (``channels``: default all of
+    the collection's; give a network's to compare on the same input).
+    """
+    channels = collection.channel_names(collection.kinds if channels is None else channels)
     name = name or f"Nearest neighbour ({channel_label(channels)})"
-    index = _OperatorIndex(collection, channels)
+    index = OperatorIndex(collection, channels)
     return Method(name, lambda idx: collection.vertices[index.query(idx)].astype(np.float64), channels)
 
 
@@ -216,7 +253,7 @@ def base_shape_method(collection) -> Method:
     return Method("Base shape", lambda idx: np.broadcast_to(base, (len(idx), *base.shape)).copy())
 
 
-def geometric_method(collection, channels=KINDS, *, max_shapes: int | None = None, **options) -> Method:
+def geometric_method(collection, channels=None, *, max_shapes: int | None = None, **options) -> Method:
     """The geometric baseline: :func:`opnet.reconstruct` from the base shape (the paper's SfL / FuncChar row),
     i.e. :func:`refined_method` of :func:`base_shape_method` (its rows' ``d_R_before`` is the base shape's error).
 
@@ -227,22 +264,24 @@ def geometric_method(collection, channels=KINDS, *, max_shapes: int | None = Non
         collection,
         channels,
         max_shapes=max_shapes,
-        name=f"Geometric ({channel_label(channels)})",
+        name=f"Geometric ({channel_label(collection.kinds if channels is None else channels)})",
         **options,
     )
 
 
 def refined_method(
-    method: Method, collection, channels=KINDS, *, max_shapes: int | None = None, name: str | None = None, **options
+    method: Method, collection, channels=None, *, max_shapes: int | None = None, name: str | None = None, **options
 ) -> Method:
     """``method`` followed by :func:`opnet.reconstruct` from its output: its vertices move until their operators
-    (``channels``) match the input's. ``options`` go to :func:`opnet.reconstruct`. Its rows also hold
+    (``channels``, default all of the collection's; each needs a ``project_torch``) match the input's. ``options`` go
+    to :func:`opnet.reconstruct`. Its rows also hold
     ``d_R_before``, the mean ``d_R`` of ``method`` on the same shapes. ``name``: default ``"<method> + refinement"``.
     """
     from .geometric import reconstruct
 
-    channels = tuple(channels)
-    chans = _select(channels)
+    ips = collection.inner_products(collection.kinds if channels is None else channels)
+    channels = tuple(ip.name for ip in ips)
+    chans = collection.channel_indices(channels)
 
     def run(idx):
         init = method.reconstruct(idx)
@@ -251,7 +290,7 @@ def refined_method(
             collection.operators[idx][:, chans],
             collection.base_basis,
             init=init,
-            channels=channels,
+            channels=ips,
             progress=False,
             **options,
         )
@@ -298,11 +337,13 @@ def evenly_spaced(indices, count: int) -> np.ndarray:
 
 
 def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = None) -> list[dict]:
-    """One row per (method, test set): ``method``, ``channels``, ``depth``, ``split``, ``n_shapes``,
+    """One row per (method, test set): ``method`` (its display name), ``channels`` (a list of channel names; empty
+    for a method that reads no operators), ``depth``, ``split``, ``n_shapes``,
     ``seconds_per_shape`` (the method's wall time over the set, per shape) and the mean and median of ``d_R``
     (length²), ``d_V``, ``d_E`` (keys ``d_R``, ``d_R_median``, ...).
 
-    ``methods``: :class:`Method` objects; ``extra``: fields added to every row (e.g. the preset).
+    ``methods``: :class:`Method` objects; ``test_sets``: any of :data:`SETS` (``"val"`` to choose between
+    experiments); ``extra``: fields added to every row (e.g. the preset).
     """
     rows = []
     for m in methods:
@@ -318,7 +359,7 @@ def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = N
             err = shape_errors(collection.vertices[idx], recon, collection.faces)
             row = dict(
                 method=m.name,
-                channels=",".join(m.channels),
+                channels=list(m.channels),
                 depth=m.depth,
                 split=ts,
                 n_shapes=int(len(idx)),

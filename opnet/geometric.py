@@ -131,7 +131,8 @@ def reconstruct(
         The base eigenbasis the operators were computed with (``k`` functions); its faces are the result's.
     init : ``"base"`` or vertices ``(B, n, 3)`` / ``(n, 3)``
         The starting shape (see the module docstring): the base (geometric baseline) or a decoded shape.
-    channels : the kinds of the operators' channels, in their order.
+    channels : the operators' channels, in their order: names (built-in or registered), inner products, or
+        ``"area,extrinsic"``. Each needs :meth:`~opnet.InnerProduct.project_torch` (the built-ins have one).
     steps : optimiser iterations (L-BFGS iterations, each with its line search; or Adam steps).
     optimizer : ``"lbfgs"`` (default: per-shape L-BFGS with Armijo backtracking) or ``"adam"``.
     lr : L-BFGS: the first step moves the vertex with the largest gradient by ``lr`` % of the shape's
@@ -161,10 +162,11 @@ def reconstruct(
     """
     if not isinstance(base_basis, Eigenbasis):
         raise TypeError(f"base_basis must be an opnet.Eigenbasis, got {type(base_basis).__name__}.")
-    from .train import parse_channels, resolve_device
+    from .data.channels import split_channels
+    from .train import resolve_device
 
-    channels = parse_channels(channels)
-    target = _as_operators(operators, channels, base_basis.k)
+    channels = get_inner_products(split_channels(channels))  # instances: each channel's project_torch is used
+    target = _as_operators(operators, tuple(ip.name for ip in channels), base_basis.k)
     X_init = _as_init(init, base_basis, len(target))
     if optimizer not in OPTIMIZERS:
         raise ValueError(f"optimizer must be one of {OPTIMIZERS}, got {optimizer!r}.")

@@ -14,16 +14,32 @@ and implement :meth:`InnerProduct.project` to add a new one::
 Override :meth:`InnerProduct.project_batch` as well when a vectorised form over many
 shapes with the same faces exists (the three built-ins do), and :meth:`InnerProduct.pull_back` when
 the inner product has a better form on a mesh of another triangulation than the default
-``(P Φ)ᵀ M (P Φ)`` (area and extrinsic lump their masses, as the fast path does).
+``(P Φ)ᵀ M (P Φ)`` (area and extrinsic lump their masses, as the fast path does). Implement
+:meth:`InnerProduct.project_torch` (the same matrix from torch tensors, differentiable) to use it where the
+coordinates are optimised: :func:`opnet.reconstruct` and :class:`opnet.torch_ops.ShapeDifferences`. The
+built-ins are written once for numpy and torch (``opnet._backend`` holds the few operations that differ).
+
+**Channels are data.** A channel is an inner product's :attr:`~InnerProduct.name` plus a digest of its
+implementation (:func:`channel_digest`: the code of its class, without docstrings, and its parameters).
+Collections and runs record both, so operators computed by one version of a class are never mixed with another's.
+A channel is given as an instance, a class, a built-in or registered name (:func:`register_inner_product`), or
+``"package.module:Class"`` (imported; how the command line names your own class).
 """
 
 from __future__ import annotations
 
+import ast
+import hashlib
+import importlib
+import inspect
+import textwrap
+import types
+
 import numpy as np
 
+from . import _backend as B
 from ._checks import describe
-from .mesh import unique_edges
-from .spectral import _edge_weights, _vertex_areas
+from .spectral import cotan_edge_weights, vertex_areas
 
 __all__ = [
     "InnerProduct",
@@ -31,43 +47,46 @@ __all__ = [
     "ConformalInnerProduct",
     "ExtrinsicInnerProduct",
     "INNER_PRODUCTS",
+    "KINDS",
+    "CHANNEL_SETS",
+    "ChannelError",
     "get_inner_product",
     "get_inner_products",
+    "register_inner_product",
+    "known_inner_products",
+    "has_torch_form",
+    "channel_digest",
+    "channel_identity",
+    "rigid_motion_change",
     "checked_gram",
 ]
 
 
-# Entries of the column-product table built at once in the batched product (bounds its memory to ~32 MB).
-_TABLE_ENTRIES = 4_000_000
+#: The paper's three shape differences, in the channel order of a collection built without ``kinds=``.
+KINDS = ("area", "conformal", "extrinsic")
+#: The paper's input combinations (Table 1 and the ablation of Appendix B), by their short names.
+CHANNEL_SETS = {
+    "Area": ("area",),
+    "Ext": ("extrinsic",),
+    "Conf": ("conformal",),
+    "A+E": ("area", "extrinsic"),
+    "A+C": ("area", "conformal"),
+    "E+C": ("conformal", "extrinsic"),
+    "A+E+C": KINDS,
+}
 
 
-def _weighted_gram(evecs: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """``Φᵀ diag(w) Φ`` for weights ``(..., n)``, giving ``(..., k, k)``.
-
-    For a batch of weight vectors the product is linear in ``w``: it is one matrix product
-    ``w @ T`` with the table ``T[p, (i, j)] = Φ[p, i] Φ[p, j]`` (upper triangle, built in
-    chunks of vertices), which runs several times faster than one product per shape.
+class ChannelError(ValueError):
+    """A channel (inner product) that is unknown, that takes a built-in name, that cannot be imported, or that a
+    collection or run recorded with another implementation; the message names the channel and the fix.
     """
-    if weights.ndim == 1:
-        return evecs.T @ (weights[:, None] * evecs)
-    k = evecs.shape[1]
-    iu, ju = np.triu_indices(k)
-    flat = weights.reshape(-1, weights.shape[-1])
-    upper = np.zeros((len(flat), len(iu)))
-    step = max(1, _TABLE_ENTRIES // len(iu))
-    for s in range(0, evecs.shape[0], step):
-        rows = evecs[s : s + step]
-        upper += flat[:, s : s + step] @ (rows[:, iu] * rows[:, ju])
-    out = np.empty((len(flat), k, k))
-    out[:, iu, ju] = upper
-    out[:, ju, iu] = upper
-    return out.reshape(*weights.shape[:-1], k, k)
 
 
 class InnerProduct:
     """An inner product ``⟨f, g⟩ = fᵀ M g`` on vertex functions, one per shape.
 
-    Subclasses set :attr:`name` and implement :meth:`project`.
+    Subclasses set :attr:`name` (a channel's name: not a built-in one, without ``,`` or ``:``) and implement
+    :meth:`project`; :meth:`project_torch` is optional.
     """
 
     name = "custom"
@@ -83,6 +102,20 @@ class InnerProduct:
     def project_batch(self, vertices: np.ndarray, faces: np.ndarray, evecs: np.ndarray) -> np.ndarray:
         """``Φᵀ M_b Φ`` ``(B, k, k)`` for shapes ``(B, n, 3)`` sharing ``faces``; loops :meth:`project` by default."""
         return np.stack([self.project(v, faces, evecs) for v in vertices])
+
+    def project_torch(self, vertices, faces, evecs):
+        """``Φᵀ M_b Φ`` ``(B, k, k)`` from torch tensors, differentiable in ``vertices``.
+
+        ``vertices`` ``(B, n, 3)`` (float32 or float64, any device), ``faces`` ``(m, 3)`` long and ``evecs``
+        ``(n, k)`` in the vertices' dtype and device. Optional: it is what :func:`opnet.reconstruct` and
+        :class:`opnet.torch_ops.ShapeDifferences` call; it must equal :meth:`project` (checked by
+        :func:`opnet.testing.check_inner_product`).
+        """
+        raise NotImplementedError(
+            f"{type(self).__name__} (inner product {self.name!r}) has no torch form: implement "
+            "project_torch(vertices (B, n, 3) tensor, faces (m, 3) long tensor, evecs (n, k) tensor) -> (B, k, k), "
+            "differentiable, to optimise coordinates against it (opnet.reconstruct, opnet.torch_ops)."
+        )
 
     def pull_back(self, vertices: np.ndarray, faces: np.ndarray, to_base, evecs: np.ndarray) -> np.ndarray:
         """``(P Φ)ᵀ M (P Φ)`` ``(k, k)``: this inner product of a mesh with another triangulation, on base functions.
@@ -103,11 +136,12 @@ class AreaInnerProduct(InnerProduct):
     """The ``L²`` inner product, ``M = A`` (lumped mass). In a shape's own basis ``K = I``."""
 
     name = "area"
+    version = 1  # bump when the numbers change (channel_digest)
 
     def project(self, vertices, faces, evecs):
-        return _weighted_gram(evecs, _vertex_areas(vertices, faces))
+        return _area_gram(vertices, faces, evecs)
 
-    project_batch = project
+    project_batch = project_torch = project
 
     def pull_back(self, vertices, faces, to_base, evecs):
         """The mesh's lumped masses carried onto the base vertices, ``Φᵀ diag(Pᵀ a) Φ``.
@@ -116,20 +150,19 @@ class AreaInnerProduct(InnerProduct):
         the identity map and, unlike the unlumped form, does not shrink the high frequencies that a
         barycentric ``P`` averages.
         """
-        return _weighted_gram(evecs, to_base.T @ _vertex_areas(vertices, faces))
+        return B.weighted_gram(evecs, to_base.T @ vertex_areas(vertices, faces))
 
 
 class ConformalInnerProduct(InnerProduct):
     """The ``H¹`` (Dirichlet) inner product, ``M = W`` (cotan stiffness). In a shape's own basis ``K = Λ``."""
 
     name = "conformal"
+    version = 1
 
     def project(self, vertices, faces, evecs):
-        edges = unique_edges(faces)
-        diff = evecs[edges[:, 0]] - evecs[edges[:, 1]]  # (e, k)
-        return _weighted_gram(diff, _edge_weights(vertices, faces, edges))
+        return _conformal_gram(vertices, faces, evecs)
 
-    project_batch = project
+    project_batch = project_torch = project
 
 
 class ExtrinsicInnerProduct(InnerProduct):
@@ -142,11 +175,12 @@ class ExtrinsicInnerProduct(InnerProduct):
     """
 
     name = "extrinsic"
+    version = 1
 
     def project(self, vertices, faces, evecs):
-        return _extrinsic_gram(evecs, _vertex_areas(vertices, faces), vertices)
+        return _extrinsic_gram(evecs, vertex_areas(vertices, faces), vertices)
 
-    project_batch = project
+    project_batch = project_torch = project
 
     def pull_back(self, vertices, faces, to_base, evecs):
         """Lumped, like the area's: masses ``Pᵀ a`` on the base vertices, at the mass-weighted mean position
@@ -155,7 +189,7 @@ class ExtrinsicInnerProduct(InnerProduct):
         Unlike the area's, this is an approximation of ``(P Φ)ᵀ E^D (P Φ)``: the spread of the positions
         around each mean is dropped. It is exact for the identity map.
         """
-        a = _vertex_areas(vertices, faces)
+        a = vertex_areas(vertices, faces)
         mass = to_base.T @ a
         moment = to_base.T @ (a[:, None] * vertices)
         where = mass > 0
@@ -164,27 +198,39 @@ class ExtrinsicInnerProduct(InnerProduct):
         return _extrinsic_gram(evecs, mass, positions)
 
 
-def _extrinsic_gram(evecs: np.ndarray, a: np.ndarray, vertices: np.ndarray) -> np.ndarray:
-    """``Φᵀ E^D Φ`` for masses ``a`` ``(..., n)`` at positions ``(..., n, 3)`` (the extrinsic inner product)."""
+def _area_gram(vertices, faces, evecs):
+    """``Φᵀ A Φ`` (numpy ``(..., k, k)`` or torch ``(B, k, k)``): the area inner product, written once."""
+    return B.weighted_gram(evecs, vertex_areas(vertices, faces))
+
+
+def _conformal_gram(vertices, faces, evecs):
+    """``Φᵀ W Φ`` with the cotan stiffness ``W`` (numpy or torch)."""
+    edges = B.edges(faces)
+    return B.weighted_gram(evecs[edges[:, 0]] - evecs[edges[:, 1]], cotan_edge_weights(vertices, faces))
+
+
+def _extrinsic_gram(evecs, a, vertices):
+    """``Φᵀ E^D Φ`` for masses ``a`` ``(..., n)`` at positions ``(..., n, 3)`` (numpy or torch)."""
     # distances are translation invariant: centring first avoids cancellation
-    v = vertices - (a[..., None] * vertices).sum(-2, keepdims=True) / a.sum(-1)[..., None, None]
-    u = a * np.einsum("...ni,...ni->...n", v, v)
+    v = vertices - (a[..., None] * vertices).sum(-2)[..., None, :] / a.sum(-1)[..., None, None]
+    u = a * (v * v).sum(-1)
     y = a[..., None] * v  # (..., n, 3)
-    rowsum = (
-        u * a.sum(-1, keepdims=True) + a * u.sum(-1, keepdims=True) - 2 * np.einsum("...ni,...i->...n", y, y.sum(-2))
-    )
+    rowsum = u * a.sum(-1)[..., None] + a * u.sum(-1)[..., None] - 2 * B.einsum("...ni,...i->...n", y, y.sum(-2))
     pa, pu, py = evecs.T @ a[..., None], evecs.T @ u[..., None], evecs.T @ y  # (..., k, 1|3)
-    low_rank = pu @ np.swapaxes(pa, -1, -2) + pa @ np.swapaxes(pu, -1, -2) - 2 * py @ np.swapaxes(py, -1, -2)
-    return _weighted_gram(evecs, rowsum) - low_rank
+    low_rank = pu @ pa.swapaxes(-1, -2) + pa @ pu.swapaxes(-1, -2) - 2 * py @ py.swapaxes(-1, -2)
+    return B.weighted_gram(evecs, rowsum) - low_rank
 
 
 def get_inner_products(kinds) -> list[InnerProduct]:
-    """The inner products of a non-empty sequence of kinds (each as in :func:`get_inner_product`)."""
+    """The inner products of a non-empty sequence of kinds (each as in :func:`get_inner_product`), without repeats."""
     if isinstance(kinds, (str, InnerProduct)):
         raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a single one.")
     ips = [get_inner_product(kind) for kind in kinds]
     if not ips:
         raise ValueError("kinds is empty: ask for at least one of opnet.KINDS (or an InnerProduct).")
+    names = [ip.name for ip in ips]
+    if len(set(names)) != len(names):
+        raise ValueError(f"kinds names a channel twice: {names}; give each once.")
     return ips
 
 
@@ -216,18 +262,214 @@ def checked_gram(ip: InnerProduct, method: str, *args) -> np.ndarray:
 #: The paper's three inner products by name: what a ``kind`` string (``"area"``, ``"conformal"``,
 #: ``"extrinsic"``) stands for.
 INNER_PRODUCTS = {ip.name: ip for ip in (AreaInnerProduct(), ConformalInnerProduct(), ExtrinsicInnerProduct())}
+_REGISTRY: dict = {}  # the user's, by name (register_inner_product)
+
+
+def known_inner_products() -> dict:
+    """The channels a name resolves to: the built-ins, then the registered ones (name → instance)."""
+    return {**INNER_PRODUCTS, **_REGISTRY}
+
+
+def _checked_custom(ip: InnerProduct) -> InnerProduct:
+    name = ip.name
+    if not isinstance(name, str) or not name.strip() or "," in name or ":" in name:
+        raise ChannelError(
+            f"{type(ip).__name__}.name must be a non-empty string without ',' or ':' (channels are listed as "
+            f"'area,extrinsic' and imported as 'module:Class'), got {name!r}."
+        )
+    if name in CHANNEL_SETS:
+        raise ChannelError(
+            f"{type(ip).__name__}.name {name!r} is a short name of a set of built-in channels "
+            f"({sorted(CHANNEL_SETS)}); give your inner product another name."
+        )
+    builtin = INNER_PRODUCTS.get(name)
+    if builtin is not None and type(ip) is not type(builtin):
+        raise ChannelError(
+            f"{type(ip).__name__} takes the built-in channel name {name!r}; give your inner product a name of its "
+            f"own (name = 'my {name}'): the built-ins are {sorted(INNER_PRODUCTS)}."
+        )
+    return ip
 
 
 def get_inner_product(kind) -> InnerProduct:
-    """``"area"``, ``"conformal"``, ``"extrinsic"`` or an :class:`~opnet.inner_products.InnerProduct` instance."""
+    """The inner product of one channel: an :class:`InnerProduct` instance or subclass, a built-in name
+    (``"area"``, ``"conformal"``, ``"extrinsic"``), a name registered with :func:`register_inner_product`, or
+    ``"package.module:Class"`` (imported; the class is instantiated without arguments).
+    """
     if isinstance(kind, InnerProduct):
-        return kind
+        return _checked_custom(kind)
     if isinstance(kind, type) and issubclass(kind, InnerProduct):
-        return kind()
+        return _checked_custom(kind())
+    known = known_inner_products()
+    if isinstance(kind, str) and kind in known:
+        return known[kind]
+    if isinstance(kind, str) and ":" in kind:
+        return _import_inner_product(kind)
+    raise ChannelError(
+        f"unknown channel {kind!r}; the known channels are {sorted(known)}. For your own inner product pass the "
+        "instance (collection.with_kinds([..., MyIP()])), opnet.register_inner_product(MyIP()) once, or "
+        "'package.module:MyIP'."
+    )
+
+
+def _import_inner_product(spec: str) -> InnerProduct:
+    module_name, _, attr = spec.partition(":")
     try:
-        return INNER_PRODUCTS[kind]
-    except (KeyError, TypeError):
-        raise ValueError(
-            f"unknown shape-difference kind {kind!r}; use one of {sorted(INNER_PRODUCTS)} or an opnet.InnerProduct "
-            "instance."
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise ChannelError(
+            f"channel {spec!r}: the module {module_name!r} does not import ({type(exc).__name__}: {exc}); put it on "
+            "the Python path (pip install -e your package, or PYTHONPATH) or fix the module name."
         ) from None
+    obj = module
+    for part in attr.split("."):
+        if not hasattr(obj, part):
+            raise ChannelError(f"channel {spec!r}: the module {module_name!r} has no {attr!r}.")
+        obj = getattr(obj, part)
+    if not (isinstance(obj, InnerProduct) or (isinstance(obj, type) and issubclass(obj, InnerProduct))):
+        raise ChannelError(
+            f"channel {spec!r} is a {type(obj).__name__}, not an opnet.InnerProduct (class or instance)."
+        )
+    return get_inner_product(obj)
+
+
+def register_inner_product(ip, *, replace: bool = False) -> InnerProduct:
+    """Make ``ip`` (an instance or class) known by its name, so that ``"its name"`` works wherever a channel is
+    asked for (the command line, collections read back from disk). A name already registered by another
+    implementation is refused unless ``replace=True``. Returns the instance.
+    """
+    ip = get_inner_product(ip if isinstance(ip, (InnerProduct, type)) else _not_an_inner_product(ip))
+    if ip.name in INNER_PRODUCTS:
+        return ip  # a built-in is known already
+    old = _REGISTRY.get(ip.name)
+    if old is not None and not replace and channel_digest(old) != channel_digest(ip):
+        raise ChannelError(
+            f"the channel name {ip.name!r} is registered already by another implementation "
+            f"({type(old).__name__}, digest {channel_digest(old)}); pass replace=True, or choose another name."
+        )
+    _REGISTRY[ip.name] = ip
+    return ip
+
+
+def _not_an_inner_product(obj):
+    raise TypeError(f"register_inner_product takes an opnet.InnerProduct instance or class, got {describe(obj)}.")
+
+
+def has_torch_form(ip) -> bool:
+    """Whether the inner product implements :meth:`InnerProduct.project_torch`."""
+    return type(get_inner_product(ip)).project_torch is not InnerProduct.project_torch
+
+
+# attributes that are not code: the interpreter's, the dataclass and abc machinery's, and what pickling adds
+_NOT_CODE = ("__doc__", "__module__", "__qualname__", "__dict__", "__weakref__", "__firstlineno__", "__slotnames__")
+
+
+def _code_text(cls: type) -> str:
+    """The code of a class's own attributes: each function's syntax tree without its docstring (from its source,
+    found through its code object, so a class redefined under the same name in one file or notebook is told
+    apart), its compiled code where there is no source; other attributes by a stable text (:func:`_param_text`;
+    dunder data such as ``__dataclass_fields__`` and ``_abc_impl`` left out).
+    """
+    parts = []
+    for key, value in sorted(vars(cls).items()):
+        func = getattr(value, "__func__", value)
+        if hasattr(func, "__code__"):
+            parts.append(f"{key}={_function_text(func)}")
+        elif isinstance(value, property):
+            parts.append(f"{key}=property({', '.join(_function_text(f) for f in (value.fget, value.fset) if f)})")
+        elif not (key in _NOT_CODE or key.startswith("__") or key == "_abc_impl"):
+            parts.append(f"{key}={_param_text(value)}")
+    return "\n".join(parts)
+
+
+def _function_text(func) -> str:
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(func)))
+    except (OSError, TypeError, SyntaxError, IndentationError):  # no source (exec, a lambda in an expression, ...)
+        return _code_digest(func.__code__, func.__doc__)
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if (
+            isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))
+            and body
+            and isinstance(body[0], ast.Expr)
+            and isinstance(body[0].value, ast.Constant)
+            and isinstance(body[0].value.value, str)
+        ):
+            node.body = body[1:] or [ast.Pass()]
+    return ast.dump(tree)
+
+
+def _code_digest(code: types.CodeType, doc: str | None = None) -> str:
+    consts = [_code_digest(c) if isinstance(c, types.CodeType) else repr(c) for c in code.co_consts if c is not doc]
+    return hashlib.sha256(repr((code.co_code, code.co_names, code.co_varnames, consts)).encode()).hexdigest()
+
+
+def _param_text(value) -> str:
+    """A text of a parameter that is the same in every process: arrays by a digest of their bytes, containers
+    element by element (sets sorted), functions by their code, and objects whose ``repr`` shows a memory address by
+    their type alone.
+    """
+    if isinstance(value, np.ndarray):
+        return f"array{value.shape}{value.dtype}:{hashlib.sha256(np.ascontiguousarray(value).data).hexdigest()}"
+    if isinstance(value, (list, tuple)):
+        return f"{type(value).__name__}({', '.join(map(_param_text, value))})"
+    if isinstance(value, (set, frozenset)):
+        return f"{type(value).__name__}({', '.join(sorted(map(_param_text, value)))})"
+    if isinstance(value, dict):
+        return "{" + ", ".join(sorted(f"{_param_text(k)}: {_param_text(v)}" for k, v in value.items())) + "}"
+    func = getattr(value, "__func__", value)
+    if hasattr(func, "__code__"):
+        return _function_text(func)
+    text = repr(value)
+    return type(value).__qualname__ if " at 0x" in text else text
+
+
+def channel_digest(ip) -> str:
+    """16 hex digits identifying an inner product's implementation: its class's code and that of its bases up
+    to :class:`InnerProduct` (docstrings and comments left out), and its instance's attributes (e.g. a
+    parameter ``t``; attributes starting with ``_`` are taken for caches and left out). Editing the code of a class
+    changes it, so its operators stored before are refused.
+
+    A class that sets ``version`` in its own body (any value) manages its identity itself: that class's part of the
+    digest then depends on the version instead of its code (a subclass's own code still counts) (the built-ins do:
+    their numbers are pinned by tests, and a refactoring of them must not make every stored collection stale). It
+    also misses changes to module-level helpers that the class calls.
+    """
+    ip = get_inner_product(ip)
+    h = hashlib.sha256()
+    for cls in type(ip).__mro__:
+        if cls in (InnerProduct, object):
+            continue
+        own = vars(cls).get("version")  # a class's own version stands for its code; a subclass's code still counts
+        code = f"version {own!r}" if own is not None else _code_text(cls)
+        h.update(f"{cls.__qualname__}\n{code}\n".encode())  # not its module: moving a class keeps its identity
+    params = sorted((k, _param_text(v)) for k, v in vars(ip).items() if not k.startswith("_"))  # _x: caches
+    h.update(repr(params).encode())
+    return h.hexdigest()[:16]
+
+
+def channel_identity(ip) -> dict:
+    """``{"name", "digest", "spec"}`` of a channel: what runs record. ``spec`` is ``"module:Class"`` when the class
+    can be imported again (not one typed in a notebook or script run as ``__main__``), else ``None``.
+    """
+    ip = get_inner_product(ip)
+    cls = type(ip)
+    importable = cls.__module__ not in ("__main__", "builtins") and "<locals>" not in cls.__qualname__
+    spec = f"{cls.__module__}:{cls.__qualname__}" if importable and ip.name not in INNER_PRODUCTS else None
+    return {"name": ip.name, "digest": channel_digest(ip), "spec": spec}
+
+
+def rigid_motion_change(ip, vertices: np.ndarray, faces: np.ndarray, evecs: np.ndarray) -> float:
+    """Relative change ``‖K(R v + t) − K(v)‖ / ‖K(v)‖`` of ``Φᵀ M Φ`` under a fixed rotation and translation of
+    one shape (``(n, 3)``); ~1e-15 for a rigid-invariant inner product (intrinsic or distance-based ones).
+    """
+    c, s = np.cos([0.3, -0.7, 1.1]), np.sin([0.3, -0.7, 1.1])
+    rx = np.array([[1, 0, 0], [0, c[0], -s[0]], [0, s[0], c[0]]])
+    ry = np.array([[c[1], 0, s[1]], [0, 1, 0], [-s[1], 0, c[1]]])
+    rz = np.array([[c[2], -s[2], 0], [s[2], c[2], 0], [0, 0, 1]])
+    size = np.ptp(vertices, axis=0).max()
+    moved = vertices @ (rz @ ry @ rx).T + size * np.array([0.5, -1.0, 2.0])
+    ip = get_inner_product(ip)
+    K = checked_gram(ip, "project", vertices, faces, evecs)
+    return float(np.linalg.norm(checked_gram(ip, "project", moved, faces, evecs) - K) / max(np.linalg.norm(K), 1e-300))

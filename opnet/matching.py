@@ -35,7 +35,7 @@ from .fmaps import FunctionalMap
 from .inner_products import checked_gram, get_inner_products
 from .mesh import Mesh, closest_points_on_faces, edge_face_counts, face_areas
 from .metrics import mesh_volume
-from .shape_difference import KINDS, _check_base, base_pinvs, fast_path
+from .shape_difference import KINDS, base_pinvs, check_base, fast_path
 from .spectral import Eigenbasis, eigenbasis
 
 __all__ = [
@@ -85,7 +85,7 @@ class SurfaceMap:
     fmap: np.ndarray | None = None
 
     def __post_init__(self):
-        _check_base(self.base)
+        check_base(self.base)
         _check_mesh(self.mesh)
         shape = (self.mesh.n_vertices, self.base.mesh.n_vertices)
         if not sp.issparse(self.to_base) or self.to_base.shape != shape:
@@ -179,7 +179,7 @@ def _check_closed(mesh: Mesh) -> None:
 
 def map_from_p2p(base_basis: Eigenbasis, mesh: Mesh, p2p) -> SurfaceMap:
     """A :class:`SurfaceMap` from a known vertex map: ``p2p[p]`` is the base vertex of mesh vertex ``p``."""
-    _check_base(base_basis)
+    check_base(base_basis)
     mesh = _check_mesh(mesh)
     p2p = np.asarray(p2p)
     n, n0 = mesh.n_vertices, base_basis.mesh.n_vertices
@@ -200,7 +200,7 @@ def closest_point_map(base_basis: Eigenbasis, mesh: Mesh) -> SurfaceMap:
     Right for two triangulations of one shape in one place (the generator's 1k, 2k and 5k meshes of
     the base, say): it is the true map that computed maps are measured against.
     """
-    _check_base(base_basis)
+    check_base(base_basis)
     mesh = _check_mesh(mesh)
     base = base_basis.mesh
     _, near = cKDTree(base.vertices).query(mesh.vertices, k=_NEAR)
@@ -248,7 +248,7 @@ def compute_map(
     SurfaceMap
         With ``fmap`` the ``(k, k)`` functional map from ZoomOut.
     """
-    _check_base(base_basis)
+    check_base(base_basis)
     mesh = _check_mesh(mesh)
     _check_closed(mesh)
     if not isinstance(k, (int, np.integer)) or not isinstance(k_init, (int, np.integer)) or not 2 <= k_init <= k:
@@ -339,7 +339,7 @@ def encode(
         Warn (:class:`MapQualityWarning`) when a computed map looks wrong: it collapses (coverage below
         0.8) or reverses orientation (below 0.5). See :meth:`SurfaceMap.quality`.
     """
-    _check_base(base_basis)
+    check_base(base_basis)
     mesh = _check_mesh(mesh)
     base = base_basis.mesh
     if map_options and not (isinstance(fmap, str) and fmap == "computed"):

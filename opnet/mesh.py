@@ -26,6 +26,7 @@ __all__ = [
     "span",
     "load_mesh",
     "unique_edges",
+    "corner_edges",
     "edge_face_counts",
     "face_areas",
     "farthest_first",
@@ -232,6 +233,15 @@ def unique_edges(faces: np.ndarray) -> np.ndarray:
     return edge_face_counts(faces)[0]
 
 
+def corner_edges(faces: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """The index into ``edges`` (:func:`unique_edges` of ``faces``) of the edge opposite each corner, ``(3m,)`` in
+    corner order (face by face, corners 0, 1, 2): where each corner's cotangent goes.
+    """
+    opp = np.sort(np.stack([faces[:, [1, 2]], faces[:, [2, 0]], faces[:, [0, 1]]], axis=1).reshape(-1, 2), axis=1)
+    n = int(faces.max()) + 1
+    return np.searchsorted(edges[:, 0] * n + edges[:, 1], opp[:, 0] * n + opp[:, 1])
+
+
 def _as_vertices(vertices) -> np.ndarray:
     """A float64 copy (the mesh freezes it) of checked ``(n, 3)`` coordinates, or a :class:`MeshError`."""
     try:
@@ -247,7 +257,7 @@ def _as_vertices(vertices) -> np.ndarray:
     return v
 
 
-def _as_faces(faces, n: int) -> np.ndarray:
+def as_faces(faces, n: int) -> np.ndarray:
     try:
         f = np.asarray(faces)
     except Exception:  # ragged lists, e.g. triangles mixed with quads
@@ -347,7 +357,7 @@ class Mesh:
             raise MeshError(
                 f"the mesh has {len(v)} vertices; a closed or open surface needs at least 4 (a tetrahedron)."
             )
-        f = _as_faces(faces, len(v))
+        f = as_faces(faces, len(v))
         kept = np.arange(len(v))
         n_comp, labels = _components(f, len(v))
         if n_comp > 1:

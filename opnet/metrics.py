@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._checks import real_array
-from .mesh import _as_faces, edge_face_counts, unique_edges
+from .mesh import as_faces, edge_face_counts, unique_edges
 
 __all__ = ["kabsch", "rigid_align", "d_R", "d_V", "d_E", "mesh_volume"]
 
@@ -54,7 +54,7 @@ def mesh_volume(vertices, faces) -> np.ndarray:
     Positive for outward-oriented faces. Only meaningful for a closed surface.
     """
     v = real_array("vertices", vertices, (..., "n", 3))
-    v = v[..., _as_faces(faces, v.shape[-2]), :]
+    v = v[..., as_faces(faces, v.shape[-2]), :]
     return np.einsum("...i,...i->...", v[..., 0, :], np.cross(v[..., 1, :], v[..., 2, :])).sum(-1) / 6.0
 
 
@@ -65,7 +65,7 @@ def d_V(X_gt, X_recon, faces) -> np.ndarray:
     ``ValueError`` for an open mesh, whose enclosed volume is undefined.
     """
     X_gt, X_recon = _pair(X_gt, X_recon, ("X_gt", "X_recon"))
-    f = _as_faces(faces, X_gt.shape[-2])
+    f = as_faces(faces, X_gt.shape[-2])
     if np.any(edge_face_counts(f)[1] != 2):
         raise ValueError("d_V needs a closed mesh (every edge in exactly two faces); this one has boundary edges.")
     v_gt = np.abs(mesh_volume(X_gt, f))
@@ -75,7 +75,7 @@ def d_V(X_gt, X_recon, faces) -> np.ndarray:
 def d_E(X_gt, X_recon, faces) -> np.ndarray:
     """Mean relative edge-length error ``mean |l_gt − l_recon| / l_gt`` over the unique edges of ``faces``."""
     X_gt, X_recon = _pair(X_gt, X_recon, ("X_gt", "X_recon"))
-    e = unique_edges(_as_faces(faces, X_gt.shape[-2]))
+    e = unique_edges(as_faces(faces, X_gt.shape[-2]))
 
     def lengths(X):
         return np.linalg.norm(X[..., e[:, 0], :] - X[..., e[:, 1], :], axis=-1)

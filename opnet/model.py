@@ -73,7 +73,9 @@ class OperatorNet(nn.Module):
     ----------
     n_vertices : number of output vertices ``n``.
     k : size of the operators (the base basis size, 60 in the paper).
-    channels : the input operators, any non-empty subset of ``("area", "conformal", "extrinsic")``.
+    channels : the names of the input operators, in order (any channels: built-in or your own inner products;
+        instances are taken by name). The network reads ``len(channels)`` input maps; the names are metadata that
+        :func:`opnet.decode` and the evaluation use to pick the right operators.
     depth : convolution layers in the encoder, 1 to 4 (filters 8, 16, 32, 64).
     hidden : width of the two hidden dense layers (1024 in the paper).
     subtract_identity : feed the encoder ``D − I`` instead of ``D`` (default ``True``; the paper feeds ``D``).
@@ -105,9 +107,9 @@ class OperatorNet(nn.Module):
         residual: bool = False,
     ):
         super().__init__()
-        channels = tuple(channels)
-        if not channels or not set(channels) <= set(KINDS) or len(set(channels)) != len(channels):
-            raise ValueError(f"channels must be a non-empty subset of {KINDS} without repeats, got {channels!r}.")
+        channels = tuple(getattr(c, "name", c) for c in ((channels,) if isinstance(channels, str) else channels))
+        if not channels or not all(isinstance(c, str) for c in channels) or len(set(channels)) != len(channels):
+            raise ValueError(f"channels must be channel names (e.g. {KINDS}) without repeats, got {channels!r}.")
         if depth not in (1, 2, 3, 4):
             raise ValueError(f"depth must be 1, 2, 3 or 4 convolution layers (the paper's ablation), got {depth!r}.")
         if n_vertices < 4 or k < 1:

@@ -181,7 +181,7 @@ def plot_reconstructions(gt, reconstructions: dict, faces, *, titles=None, clim=
     gt = np.asarray(gt, dtype=np.float64)
     aligned, errors = {}, {}
     for name, r in reconstructions.items():
-        aligned[name], errors[name] = _aligned_errors(r, gt)
+        aligned[name], errors[name] = aligned_errors(r, gt)
     vmax = max(float(e.max()) for e in errors.values()) if clim is None else None
     clim = clim or (0.0, vmax)
     meshes, scalars, labels = [], [], []
@@ -232,7 +232,7 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
     base = surface_maps[0].base.mesh
     x, z = base.vertices[:, 0], base.vertices[:, 2]  # +x the body's left, +z up
     painted = np.sign(x) * (1 + (z - z.min()) / np.ptp(z))
-    errors = {name: _aligned_errors(r, truth) for name, r in reconstructions.items()}
+    errors = {name: aligned_errors(r, truth) for name, r in reconstructions.items()}
     top = max(float(e.max()) for _, e in errors.values())
     meshes, scalars, titles, cmaps, clims = [], [], [], [], []
     for i, sm in enumerate(surface_maps):
@@ -265,7 +265,7 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
     )
 
 
-def _aligned_errors(shapes, truth):
+def aligned_errors(shapes, truth):
     """``shapes`` rigidly aligned onto ``truth`` (both ``(N, n, 3)``) and their per-vertex distances ``(N, n)``."""
     from .metrics import rigid_align
 
@@ -286,7 +286,7 @@ def plot_interpolations(paths: dict, faces, t, *, truth=None, columns: int = 6, 
     rows = ({"ground truth": truth} if truth is not None else {}) | dict(paths)
     meshes, scalars, titles, errors = [], [], [], {}
     if truth is not None:
-        errors = {name: _aligned_errors(np.asarray(p)[cols], np.asarray(truth)[cols]) for name, p in paths.items()}
+        errors = {name: aligned_errors(np.asarray(p)[cols], np.asarray(truth)[cols]) for name, p in paths.items()}
     vmax = max((float(e.max()) for _, e in errors.values()), default=1.0)
     clim = clim or (0.0, vmax)
     for name, p in rows.items():
@@ -320,7 +320,7 @@ def plot_analogies(A, B, C, results: dict, faces, *, truth=None, clim=None, came
     ``A``, ``B``, ``C``: ``(N, n, 3)``; ``results``: name → ``(N, n, 3)``; ``truth``: ``(N, n, 3)`` or ``None``.
     """
     A, B, C = (np.asarray(x, np.float64) for x in (A, B, C))
-    errors = {name: _aligned_errors(x, truth) for name, x in results.items()} if truth is not None else {}
+    errors = {name: aligned_errors(x, truth) for name, x in results.items()} if truth is not None else {}
     vmax = max((float(e.max()) for _, e in errors.values()), default=1.0)
     clim = clim or (0.0, vmax)
     meshes, scalars, titles = [], [], []
@@ -572,7 +572,7 @@ def plot_operator_drift(collection, indices, *, x=None, xlabel=None, ax=None):
     Parameters
     ----------
     collection : opnet.data.Collection
-        Its ``operators`` ``(N, 3, k, k)`` (area, conformal, extrinsic, as :data:`opnet.KINDS`).
+        Its ``operators`` ``(N, C, k, k)``, one line per channel of ``collection.kinds``.
     indices : (T,) int array
         The shapes, in order (e.g. ``collection.sequence("subject00", "arm_raise")``).
     x : (T,) array, optional
@@ -584,19 +584,17 @@ def plot_operator_drift(collection, indices, *, x=None, xlabel=None, ax=None):
     Returns
     -------
     matplotlib.figure.Figure
-        One line per kind: ``‖D − I‖_F`` on the non-constant block (the operator without its first row and
+        One line per channel: ``‖D − I‖_F`` on the non-constant block (the operator without its first row and
         column, those of the constant function), dimensionless.
     """
-    from .shape_difference import KINDS
-
     indices = np.asarray(indices)
     frames = "frame" in collection.params
     if x is None:
         x = np.asarray(collection.params["frame"])[indices] if frames else np.arange(len(indices))
     D = np.asarray(collection.operators[indices], dtype=np.float64)[:, :, 1:, 1:]
-    drift = np.linalg.norm(D - np.eye(D.shape[-1]), axis=(-2, -1))  # (T, 3)
+    drift = np.linalg.norm(D - np.eye(D.shape[-1]), axis=(-2, -1))  # (T, C)
     fig, ax = _figure_and_axes(ax, (6, 3.2))
-    for c, kind in enumerate(KINDS[: D.shape[1]]):
+    for c, kind in enumerate(collection.kinds):
         ax.plot(x, drift[:, c], "o-", label=kind)
     if np.issubdtype(np.asarray(x).dtype, np.integer):  # frames: no ticks between them
         ax.xaxis.set_major_locator(require("matplotlib.ticker", "opnet.plotting").MaxNLocator(integer=True))

@@ -20,14 +20,11 @@ from tqdm.auto import tqdm
 
 from ._checks import check_int, real_array
 from .fmaps import FunctionalMap
-from .inner_products import checked_gram, get_inner_product, get_inner_products
+from .inner_products import CHANNEL_SETS, KINDS, checked_gram, get_inner_product, get_inner_products
 from .mesh import Mesh, check_shapes
 from .spectral import Eigenbasis
 
-__all__ = ["shape_difference", "shape_differences", "distortion_function", "KINDS", "pinv_psd"]
-
-#: The three shape differences, in the channel order of every ``(..., 3, k, k)`` operator array.
-KINDS = ("area", "conformal", "extrinsic")
+__all__ = ["shape_difference", "shape_differences", "distortion_function", "pinv_psd", "KINDS", "CHANNEL_SETS"]
 
 
 class NotPositiveError(ValueError):
@@ -70,7 +67,7 @@ def base_pinvs(base_basis: Eigenbasis, kinds) -> list[np.ndarray]:
     return out
 
 
-def _check_base(base_basis) -> None:
+def check_base(base_basis) -> None:
     if not isinstance(base_basis, Eigenbasis):
         raise TypeError(
             f"base_basis must be an opnet.Eigenbasis (opnet.eigenbasis(base_mesh, k)), got {type(base_basis).__name__}."
@@ -94,7 +91,7 @@ def shape_difference(base_basis: Eigenbasis, target, kind="area", fmap: Function
         omitted, the meshes must be in 1-1 correspondence and the fast path (identity
         map, full target basis) is used.
     """
-    _check_base(base_basis)
+    check_base(base_basis)
     ip = get_inner_product(kind)
     base = base_basis.mesh
     if isinstance(target, (str, Path)):
@@ -155,7 +152,7 @@ def shape_differences(
     -------
     (B, len(kinds), k, k) float64
     """
-    _check_base(base_basis)
+    check_base(base_basis)
     base = base_basis.mesh
     ips = get_inner_products(kinds)
     vertices = real_array("vertices", vertices, ("B", base.n_vertices, 3), hint="to share the base's faces")
@@ -189,7 +186,7 @@ def distortion_function(D: np.ndarray, base_basis: Eigenbasis) -> np.ndarray:
     respect to the inner product of ``D`` (figure "eigenfuncs" of the paper). Its sign is
     chosen so that its largest entry is positive; it is ``A``-normalised on the base.
     """
-    _check_base(base_basis)
+    check_base(base_basis)
     D = real_array("D", D, (base_basis.k, base_basis.k), hint="to match the base basis")
     w, V = np.linalg.eig(D)
     f = base_basis.evecs @ np.real(V[:, np.argmax(w.real)])

@@ -16,7 +16,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg
 
 from ._checks import real_array
-from .mesh import Mesh, _as_faces, face_areas, triangle_areas, unique_edges
+from .mesh import Mesh, as_faces, corner_edges, face_areas, triangle_areas, unique_edges
 
 __all__ = ["Eigenbasis", "eigenbasis", "cotan_edge_weights", "vertex_areas"]
 
@@ -148,12 +148,8 @@ def _corner_cotangents(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def _corner_to_edge(faces: np.ndarray, edges: np.ndarray) -> sp.csr_matrix:
     """Sparse ``(3m, e)`` matrix adding each corner's value to its opposite edge."""
-    opp = np.stack([faces[:, [1, 2]], faces[:, [2, 0]], faces[:, [0, 1]]], axis=1).reshape(-1, 2)
-    opp = np.sort(opp, axis=1)
-    n = int(faces.max()) + 1
-    key_edges = edges[:, 0] * n + edges[:, 1]
-    col = np.searchsorted(key_edges, opp[:, 0] * n + opp[:, 1])
-    return sp.csr_matrix((np.ones(len(opp)), (np.arange(len(opp)), col)), shape=(len(opp), len(edges)))
+    col = corner_edges(faces, edges)
+    return sp.csr_matrix((np.ones(len(col)), (np.arange(len(col)), col)), shape=(len(col), len(edges)))
 
 
 def _scatter(values: np.ndarray, matrix: sp.spmatrix) -> np.ndarray:
@@ -162,16 +158,25 @@ def _scatter(values: np.ndarray, matrix: sp.spmatrix) -> np.ndarray:
     return np.asarray(matrix.T @ flat.T).T.reshape(*values.shape[:-1], matrix.shape[1])
 
 
+def _is_tensor(x) -> bool:
+    return type(x).__module__.split(".")[0] == "torch"
+
+
 def _checked(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     vertices = real_array("vertices", vertices, (..., "n", 3))
-    return vertices, _as_faces(faces, vertices.shape[-2])
+    return vertices, as_faces(faces, vertices.shape[-2])
 
 
 def cotan_edge_weights(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Cotan weights ``w_ij = (cot α + cot β) / 2`` ``(..., e)`` of the edges ``unique_edges(faces)``, in that order.
 
-    ``vertices`` is ``(..., n, 3)``. The stiffness is ``W = Σ_e w_e (δ_i − δ_j)(δ_i − δ_j)ᵀ``.
+    ``vertices`` is ``(..., n, 3)``. The stiffness is ``W = Σ_e w_e (δ_i − δ_j)(δ_i − δ_j)ᵀ``. A torch tensor of
+    vertices gives a tensor, differentiable in them.
     """
+    if _is_tensor(vertices):
+        from ._backend import edge_weights  # torch only: the numpy path never loads it
+
+        return edge_weights(vertices, faces)
     vertices, faces = _checked(vertices, faces)
     return _edge_weights(vertices, faces, unique_edges(faces))
 
@@ -183,7 +188,15 @@ def _edge_weights(vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray) ->
 
 
 def vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Barycentric lumped mass ``(..., n)`` (length²) for vertices ``(..., n, 3)`` sharing ``faces`` ``(m, 3)``."""
+    """Barycentric lumped mass ``(..., n)`` (length²) for vertices ``(..., n, 3)`` sharing ``faces`` ``(m, 3)``.
+
+    A torch tensor of vertices gives a tensor, differentiable in them (so an inner product written with it serves
+    as its own ``project_torch``).
+    """
+    if _is_tensor(vertices):
+        from ._backend import areas  # torch only: the numpy path below never loads it
+
+        return areas(vertices, faces)
     return _vertex_areas(*_checked(vertices, faces))
 
 

@@ -89,14 +89,14 @@ def _default_shapes(collection) -> dict:
 
 def _with_errors(shapes: dict, truth):
     """Titles and per-vertex errors of shapes aligned onto ``truth`` (or plain shapes when there is none)."""
-    from .plotting import _aligned_errors
+    from .plotting import aligned_errors
 
     names, meshes, scalars = [], [], []
     for name, V in shapes.items():
         if truth is None:
             names.append(name), meshes.append(V), scalars.append(None)
             continue
-        A, err = _aligned_errors(V, truth)
+        A, err = aligned_errors(V, truth)
         names.append(f"{name}: {1000 * err.mean():.1f} mm"), meshes.append(A), scalars.append(err)
     return names, meshes, scalars
 
@@ -170,10 +170,10 @@ def analogy_explorer(collection, methods, *, subjects=None, poses=None, camera="
     """
     w = require("ipywidgets", "opnet.widgets")
 
-    from .apps import _test_pool
+    from .apps import ground_truth_pool
     from .data.generators import generate_shapes
 
-    subj, pose_idx, _ = _test_pool(collection)
+    subj, pose_idx, _ = ground_truth_pool(collection)
     subjects = subjects if subjects is not None else {f"unseen subject {i}": p for i, p in enumerate(subj)}
     poses = (
         poses

@@ -322,13 +322,21 @@ def test_an_unusable_data_root_is_found_before_building(coll, tmp_path, monkeypa
     assert built == ["quick"] and len(got) == len(coll)
 
 
-def test_the_manifest_records_the_channel_order(coll, tmp_path):
+def test_the_manifest_records_the_channels(coll, tmp_path):
+    """The manifest names the operators' channels in order, with their digests; a manifest whose channels do not
+    fit the stored operators is refused, one written before channels were recorded reads as opnet.KINDS."""
     path = opnet.data.save_collection(coll, tmp_path / "toy")
     manifest = json.loads(path.read_text())
     assert manifest["channels"] == list(opnet.KINDS)
-    path.write_text(json.dumps(dict(manifest, channels=["extrinsic", "area", "conformal"])))
-    with pytest.raises(CollectionError, match=r"channel order \['extrinsic', 'area', 'conformal'\].*rebuild=True"):
+    assert manifest["channel_digests"] == {c: opnet.channel_digest(c) for c in opnet.KINDS}
+    swapped = opnet.data.read_collection(path)
+    assert swapped.kinds == opnet.KINDS
+    path.write_text(json.dumps(dict(manifest, channels=["extrinsic", "area"])))
+    with pytest.raises(CollectionError, match=r"names the channels \['extrinsic', 'area'\].*rebuild=True"):
         opnet.data.read_collection(path)
+    old = {k: v for k, v in manifest.items() if k not in ("channels", "channel_digests")}
+    path.write_text(json.dumps(old))
+    assert opnet.data.read_collection(path).kinds == opnet.KINDS
 
 
 def test_a_format_2_collection_is_read_with_its_subjects_derived(coll, tmp_path):

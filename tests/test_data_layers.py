@@ -1,5 +1,6 @@
-"""The data package's layers read one way: every import inside opnet.data (lazy ones included, relative or
-absolute) points to a lower layer, and only the adapter imports anny, in all of opnet."""
+"""opnet's layers read one way: every import (lazy ones included, relative or absolute) of a module of opnet points
+to a lower layer of the package, and inside opnet.data to a lower layer of the data package; no module imports
+another's private names; only the adapter imports anny, in all of opnet."""
 
 import ast
 from pathlib import Path
@@ -9,6 +10,7 @@ import opnet
 PACKAGE = Path(opnet.__file__).parent
 DATA = PACKAGE / "data"
 LAYERS = [
+    {"channels"},
     {"storage", "splits", "subjects", "motion", "toy"},
     {"build", "anny_adapter"},
     {"humans", "heads", "hands"},
@@ -18,6 +20,87 @@ LAYERS = [
 ]
 RANK = {name: i for i, layer in enumerate(LAYERS) for name in layer}
 _IMPORTERS = ("require", "import_module")  # opnet._extras.require, importlib.import_module
+
+
+#: The package's layers, lowest first: geometry in numpy, then the data, then torch, then what sits on top.
+PACKAGE_LAYERS = [
+    {"_checks", "_files", "_extras"},
+    {"mesh"},
+    {"_backend", "algebra"},
+    {"spectral"},
+    {"fmaps", "gram", "metrics"},
+    {"inner_products"},
+    {"shape_difference", "testing"},
+    {"matching"},
+    {"data"},
+    {"torch_ops", "model"},
+    {"train"},
+    {"geometric"},
+    {"evaluate"},
+    {"apps", "plotting"},
+    {"experiments", "widgets"},
+    {"reproduce"},
+    {"__main__", "__init__"},
+]
+PACKAGE_RANK = {name: i for i, layer in enumerate(PACKAGE_LAYERS) for name in layer}
+
+
+def _unit(path: Path, package: Path = PACKAGE) -> str:
+    """The layer unit of a module: its top-level module or subpackage (``data``, ``train``, ``experiments``)."""
+    return path.relative_to(package).with_suffix("").parts[0]
+
+
+def _opnet_imports(path: Path, package: Path = PACKAGE):
+    """``(units imported, private names imported)`` by a module of opnet, lazy imports included."""
+    here = ["opnet", *path.relative_to(package).with_suffix("").parts[:-1]]
+    units, private = set(), set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            base = ".".join(here[: len(here) - node.level + 1]) if node.level else ""
+            module = ".".join(p for p in (base, node.module) if p)
+            if module != "opnet" and not module.startswith("opnet."):
+                continue
+            parts = module.split(".")
+            if len(parts) > 1:
+                units.add(parts[1])
+            else:
+                units.update(a.name for a in node.names)
+            for a in node.names:
+                submodule = (package / Path(*parts[1:]) / f"{a.name}.py").is_file() or (package / a.name).is_dir()
+                if a.name.startswith("_") and not a.name.startswith("__") and not submodule:
+                    private.add(f"{module}.{a.name}")
+        elif isinstance(node, ast.Import):
+            units.update(a.name.split(".")[1] for a in node.names if a.name.startswith("opnet."))
+    return units, private
+
+
+def test_every_package_module_has_a_layer():
+    assert {_unit(p) for p in PACKAGE.rglob("*.py")} <= set(PACKAGE_RANK)
+
+
+def test_imports_point_down_in_the_whole_package():
+    for path in PACKAGE.rglob("*.py"):
+        unit = _unit(path)
+        upward = {u for u in _opnet_imports(path)[0] - {unit} if PACKAGE_RANK.get(u, -1) >= PACKAGE_RANK[unit]}
+        assert not upward, f"{path.relative_to(PACKAGE)} imports {upward} from its own or a higher layer"
+
+
+def test_no_module_imports_another_modules_private_names():
+    for path in PACKAGE.rglob("*.py"):
+        private = _opnet_imports(path)[1]
+        assert not private, f"{path.relative_to(PACKAGE)} imports the private names {sorted(private)}"
+
+
+def test_the_package_check_can_fail(tmp_path):
+    fake = tmp_path / "opnet" / "spectral.py"
+    fake.parent.mkdir(parents=True)
+    for bad, found in (
+        ("def f():\n    from .train import fit\n", ({"train"}, set())),
+        ("from opnet.evaluate import decode\n", ({"evaluate"}, set())),
+        ("from .mesh import _as_faces\n", ({"mesh"}, {"opnet.mesh._as_faces"})),
+    ):
+        fake.write_text(bad)
+        assert _opnet_imports(fake, tmp_path / "opnet") == found, bad
 
 
 def _imports(path: Path, package: Path = PACKAGE):
@@ -70,4 +153,4 @@ def test_the_layer_check_can_fail(tmp_path):
         fake.write_text(bad)
         data, packages = _imports(fake, tmp_path / "opnet")
         assert "generators" in data or "anny" in packages, bad
-    assert _imports(storage)[0] <= {"storage", "splits", "subjects", "motion", "toy"}
+    assert _imports(storage)[0] <= {"channels", "storage", "splits", "subjects", "motion", "toy"}

@@ -227,7 +227,7 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
     comp = opnet.data.mapped_collection(few, "2k", root=data)  # cached by reproduce
     for short in ("A+E+C", "Ext"):  # the Comp networks were trained on it
         config = json.loads((tmp_path / "runs" / f"comp-{short}-d1" / "config.json").read_text())
-        assert config["data"]["fingerprint"] == train.collection_fingerprint(comp)
+        assert config["data"]["fingerprint"] == train.collection_fingerprint(comp, opnet.CHANNEL_SETS[short])
     assert len(list(data.glob("*computed2k*.json"))) == 1  # the 2k computed rows reuse it: no subset of their own
     disc = [r for r in rows if r["table"] == "discretisation"]
     encodings = [("1k", "exact"), *reproduce.DISCRETISATIONS]

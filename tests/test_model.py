@@ -25,7 +25,8 @@ def test_bad_configurations_and_inputs():
     with pytest.raises(ValueError, match="depth"):
         opnet.OperatorNet(50, depth=5)
     with pytest.raises(ValueError, match="channels"):
-        opnet.OperatorNet(50, channels=("area", "volume"))
+        opnet.OperatorNet(50, channels=("area", "area"))
+    assert opnet.OperatorNet(50, k=8, channels=("area", "my volume"), hidden=8).channels == ("area", "my volume")
     with pytest.raises(ValueError, match=r"\(B, 3, 60, 60\)"):
         opnet.OperatorNet(50, hidden=8)(torch.randn(2, 2, 60, 60))
     with pytest.raises(ValueError, match=r"\(B, n, 3\)"):

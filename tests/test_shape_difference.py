@@ -150,7 +150,7 @@ def test_user_defined_inner_product(base, base_basis, targets):
 
 
 def test_bad_inputs_get_clear_errors(base, base_basis, targets):
-    with pytest.raises(ValueError, match="unknown shape-difference kind"):
+    with pytest.raises(ValueError, match="unknown channel"):
         opnet.shape_difference(base_basis, targets[0], "volume")
     small = opnet.data.toy.capsule("quick").with_vertices(base.vertices)
     with pytest.raises(ValueError, match="fmap"):

@@ -41,8 +41,23 @@ def test_the_built_in_inner_products_pass_and_are_rigid_invariant(base):
             "symmetric": True,
             "psd": True,
             "batch_equals_single": True,
+            "torch_equals_numpy": True,
             "rigid_invariant": True,
         }
+
+
+def test_a_wrong_torch_form_is_found(base):
+    class Off(opnet.InnerProduct):
+        name = "off by a bit"
+
+        def project(self, vertices, faces, evecs):
+            return opnet.AreaInnerProduct().project(vertices, faces, evecs)
+
+        def project_torch(self, vertices, faces, evecs):
+            return 1.01 * opnet.AreaInnerProduct().project_torch(vertices, faces, evecs)
+
+    with pytest.raises(AssertionError, match="project_torch differs from project"):
+        check_inner_product(Off(), base, k=10)
 
 
 def test_a_valid_but_position_dependent_inner_product_is_reported_not_refused(base):

@@ -86,12 +86,24 @@ def test_functional_shorthand_and_bad_input(base_basis, deformed):
     with pytest.raises(TypeError, match="not a single one"):
         ShapeDifferences(base_basis, "area")
 
-    class Doubled(opnet.AreaInnerProduct):  # a custom inner product: no torch form
-        def project_batch(self, vertices, faces, evecs):
-            return 2 * super().project_batch(vertices, faces, evecs)
+    class Doubled(opnet.InnerProduct):  # a custom inner product without a torch form
+        name = "doubled area"
 
-    with pytest.raises(ValueError, match=r"\['Doubled'\] have no torch form"):
+        def project(self, vertices, faces, evecs):
+            return 2 * opnet.AreaInnerProduct().project(vertices, faces, evecs)
+
+    with pytest.raises(ValueError, match=r"\['doubled area'\] have no torch form: implement project_torch"):
         ShapeDifferences(base_basis, ("area", Doubled()))
+
+    class Doubled3(Doubled):  # ... and with one: it works like a built-in
+        def project_torch(self, vertices, faces, evecs):
+            return 2 * opnet.AreaInnerProduct().project_torch(vertices, faces, evecs)
+
+    twice = ShapeDifferences(base_basis, (Doubled3(),))(deformed)
+    assert torch.allclose(twice, ShapeDifferences(base_basis, ("area",))(deformed), rtol=1e-12)  # K0 doubles too
+    assert torch.allclose(
+        ShapeDifferences(base_basis, (Doubled3(),)).project(deformed), 2 * module.project(deformed)[:, :1]
+    )
     assert ShapeDifferences(base_basis, (opnet.AreaInnerProduct(), "conformal")).kinds == ("area", "conformal")
     # numpy input is accepted (converted losslessly)
     assert torch.allclose(module(deformed), module(torch.tensor(deformed)))

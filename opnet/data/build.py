@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..inner_products import INNER_PRODUCTS, channel_digest, get_inner_products
 from ..mesh import Mesh
 from ..shape_difference import KINDS, shape_differences
 from ..spectral import eigenbasis
+from .channels import warn_if_not_rigid
 from .splits import furthest_point_subset
 from .storage import Collection
 
@@ -29,21 +31,27 @@ def assemble(
     progress: bool | None = None,
     n_eval: int = 5,
     fps_vertices: np.ndarray | None = None,
+    kinds=KINDS,
 ) -> Collection:
     """A :class:`Collection` from shapes in correspondence: computes the base eigenbasis, the operators
     (fast path) and the evaluation subset (``n_eval`` shapes per test sub-collection by furthest-point
     sampling on Hausdorff distance: 10 × 5 = 50 as in the paper, fewer when a sequence is shorter).
-    ``fps_vertices`` (N, n', 3), default ``vertices``, are the shapes the subset is chosen on.
+    ``fps_vertices`` (N, n', 3), default ``vertices``, are the shapes the subset is chosen on. ``kinds``: the
+    channels computed (default the paper's three), in that order.
     """
+    ips = get_inner_products(kinds)
     base = Mesh(base_vertices, faces)
     basis = eigenbasis(base, k)
-    operators = shape_differences(basis, vertices, KINDS, progress=progress).astype(np.float32)
+    for ip in ips:
+        if ip.name not in INNER_PRODUCTS:
+            warn_if_not_rigid(ip, basis)
+    operators = shape_differences(basis, vertices, ips, progress=progress).astype(np.float32)
     subset = []
     fps_vertices = vertices if fps_vertices is None else fps_vertices
     for sc in sorted(set(subcollection[split == "test"])):
         members = np.flatnonzero((subcollection == sc) & (split == "test"))
         subset.extend(members[furthest_point_subset(fps_vertices[members], n_eval)])
-    return Collection(
+    coll = Collection(
         vertices.astype(np.float32),
         faces,
         operators,
@@ -54,4 +62,8 @@ def assemble(
         np.array(sorted(subset), dtype=np.int64),
         params,
         dict(meta, k=k),
+        tuple(ip.name for ip in ips),
+        {ip.name: channel_digest(ip) for ip in ips},
     )
+    coll._instances.update({ip.name: ip for ip in ips})
+    return coll

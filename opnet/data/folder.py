@@ -7,13 +7,17 @@ from pathlib import Path
 import numpy as np
 
 from ..mesh import MeshError, load_mesh
+from ..shape_difference import KINDS
+from . import channels as _channels
 from .build import assemble
 from .storage import SPLITS, Collection, CollectionError
 
 __all__ = ["load_folder"]
 
 
-def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool | None = None) -> Collection:
+def load_folder(
+    folder, *, base: str | None = None, k: int = 60, kinds=None, progress: bool | None = None
+) -> Collection:
     """A collection from a folder of your own meshes in correspondence (same faces, any of .ply .obj .off).
 
     Shapes are read in file-name order (hidden files are skipped); ``base`` names the file used as base
@@ -21,7 +25,8 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
     ``filename,split,subcollection`` or ``filename,split,subcollection,subject`` (a header line ``filename,...``
     is allowed) assigns splits; every sub-collection must lie in one split. A shape's subject is its
     sub-collection's name when not given. Unlisted shapes are ``"train"``, each in a sub-collection (and subject)
-    named after its file. Save the result with :func:`~opnet.data.save_collection`.
+    named after its file. ``kinds``: the channels to compute (names or inner products, default
+    :data:`opnet.KINDS`), in that order. Save the result with :func:`~opnet.data.save_collection`.
     """
     folder = Path(folder).resolve()
     if not folder.is_dir():
@@ -113,4 +118,5 @@ def load_folder(folder, *, base: str | None = None, k: int = 60, progress: bool 
         meta,
         k=k,
         progress=progress,
+        kinds=KINDS if kinds is None else _channels.split_channels(kinds),
     )

@@ -17,7 +17,7 @@ import numpy as np
 from . import hands, heads, humans
 from .build import assemble
 from .splits import make_splits
-from .storage import _BYTES_PER_SHAPE, Collection, check_root, default_root, read_collection, save_or_warn
+from .storage import BYTES_PER_SHAPE, Collection, check_root, default_root, read_collection, save_or_warn
 from .subjects import AVERAGE_SUBJECT, PHENOTYPES, random_subjects
 
 __all__ = [
@@ -183,7 +183,7 @@ GENERATORS = {
 }
 
 
-def _generated(collection) -> str:
+def generated_name(collection) -> str:
     name = collection.meta.get("name")
     if name not in GENERATORS or not {"phenotypes", "controls"} <= set(collection.params):
         raise ValueError(
@@ -204,7 +204,7 @@ def generate_shapes(collection, phenotypes, controls, *, resolution: str | None 
     expression weights): mixing one shape's body with another's pose gives a shape the collection does not hold,
     with its ground truth (the analogy benchmark of :mod:`opnet.apps`).
     """
-    name = _generated(collection)
+    name = generated_name(collection)
     phenotypes, controls = np.asarray(phenotypes, np.float64), np.asarray(controls, np.float64)
     expected = collection.params["controls"].shape[1:]
     if phenotypes.ndim != 2 or controls.shape[1:] != expected or len(controls) != len(phenotypes):
@@ -240,7 +240,7 @@ def interpolate_controls(collection, c0, c1, t) -> np.ndarray:
     Poses (humans, hands): each bone's local rotation is interpolated along the shortest arc (slerp, so a joint
     turns at a constant rate about a fixed axis). Expressions (heads): the blendshape weights linearly.
     """
-    _generated(collection)
+    generated_name(collection)
     c0, c1 = np.asarray(c0, np.float64), np.asarray(c1, np.float64)
     t = np.atleast_1d(np.asarray(t, np.float64))
     if c0.ndim == 1:  # expression weights
@@ -256,7 +256,7 @@ def interpolate_controls(collection, c0, c1, t) -> np.ndarray:
     return out
 
 
-def _stem_name(meta: dict) -> str:
+def stem_name(meta: dict) -> str:
     """The file name (without extensions) of a generated collection: ``<name>-<preset>-<resolution>-seed<seed>-v<N>``.
     The generator version is part of it: after an upgrade that changes the data, the collection is rebuilt.
     """
@@ -272,6 +272,7 @@ def load_collection(
     seed: int = 0,
     rebuild: bool = False,
     progress: bool | None = None,
+    kinds=None,
 ) -> Collection:
     """The collection ``name`` (``"humans"``, ``"heads"`` or ``"hands"``) at ``preset``, built if missing.
 
@@ -280,6 +281,10 @@ def load_collection(
     the ``"1k"`` (default), ``"2k"`` or ``"5k"``-vertex version of the same shapes. A cached file is reused when
     its parameters match; a corrupt or mismatched one raises :class:`~opnet.data.CollectionError` naming the fix
     (``rebuild=True``).
+
+    ``kinds``: the channels wanted (names or inner products, in order; default :data:`opnet.KINDS`). The collection
+    is built and stored with the paper's three; others are added by :meth:`Collection.with_kinds` and cached beside
+    it, so asking for a new channel never rebuilds the shapes.
     """
     if name not in GENERATORS:
         raise ValueError(
@@ -297,10 +302,11 @@ def load_collection(
         raise ValueError(f"seed must be an integer, got {seed!r}.") from None
     root = Path(root) if root is not None else default_root()
     meta = dict(name=name, preset=preset, resolution=resolution, seed=seed, generator_version=GENERATOR_VERSION)
-    stem = root / _stem_name(meta)
+    stem = root / stem_name(meta)
     if not rebuild and stem.with_name(stem.name + ".json").is_file():
-        return read_collection(stem, expected_meta=meta)
-    check_root(root, shape_count(name, preset) * _BYTES_PER_SHAPE)
-    coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress)
-    save_or_warn(coll, stem)
-    return coll
+        coll = read_collection(stem, expected_meta=meta)
+    else:
+        check_root(root, shape_count(name, preset) * BYTES_PER_SHAPE)
+        coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress)
+        save_or_warn(coll, stem)
+    return coll if kinds is None else coll.with_kinds(kinds, progress=progress)

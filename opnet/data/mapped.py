@@ -33,10 +33,13 @@ import numpy as np
 from .._checks import check_int, is_integer
 from .._extras import require
 from .._files import atomic_write, remove_stale_tmp
+from ..inner_products import channel_digest, get_inner_products
+from ..shape_difference import KINDS
 from . import humans
-from .generators import _generated, _stem_name, generate_shapes, resolution_map
+from .channels import split_channels
+from .generators import generate_shapes, generated_name, resolution_map, stem_name
 from .storage import (
-    _BYTES_PER_SHAPE,
+    BYTES_PER_SHAPE,
     Collection,
     CollectionError,
     check_root,
@@ -66,6 +69,7 @@ def mapped_collection(
     n_jobs: int = -1,
     chunk: int = 32,
     k: int = MAP_K,
+    kinds=None,
     progress: bool | None = None,
 ) -> Collection:
     """``collection``'s shapes (or those of ``indices``) with operators through maps from their ``resolution`` mesh.
@@ -90,6 +94,10 @@ def mapped_collection(
         Shapes per stored part (what an interruption can lose at most, per process).
     k : int
         Functions at the end of ZoomOut (:func:`opnet.matching.compute_map`).
+    kinds : channels, optional
+        The channels to compute through the maps (names or inner products, in order; default :data:`opnet.KINDS`).
+        Each one's :meth:`~opnet.InnerProduct.pull_back` carries it onto the base. Other channels are another
+        cached collection (the stem's hash covers their digests).
     progress : bool or None
         A progress bar over the shapes (``None``: only when there are more than a chunk).
 
@@ -100,7 +108,7 @@ def mapped_collection(
     """
     if not isinstance(collection, Collection):
         raise TypeError(f"collection must be an opnet.data.Collection, got {type(collection).__name__}.")
-    if _generated(collection) != "humans" or collection.meta.get("resolution") != "1k":
+    if generated_name(collection) != "humans" or collection.meta.get("resolution") != "1k":
         raise ValueError(
             "mapped collections are made from the generated 1k humans "
             "(opnet.data.load_collection('humans', preset)): they alone come in other triangulations."
@@ -113,12 +121,13 @@ def mapped_collection(
     check_int("k", k)
     if not is_integer(n_jobs) or n_jobs == 0:
         raise ValueError(f"n_jobs must be a non-zero integer (-1: all cores), got {n_jobs!r}.")
+    ips = get_inner_products(KINDS if kinds is None else split_channels(kinds))
     source = collection if indices is None else collection.subset(indices)
     if len(source) == 0:
         raise ValueError("indices is empty: give at least one shape index.")
     m = collection.meta
     stem = Path(root) if root is not None else default_root()
-    stem = stem / f"{_stem_name(m)}-{maps}{resolution}-{_fingerprint(source, k)}"
+    stem = stem / f"{stem_name(m)}-{maps}{resolution}-{_fingerprint(source, k, ips)}"
     meta = dict(
         source.meta,
         maps=maps,
@@ -127,28 +136,40 @@ def mapped_collection(
         source=f"{m['name']}-{m['preset']}-{m['resolution']}",
     )
     if not rebuild and stem.with_name(stem.name + ".json").is_file():
-        return read_collection(stem, expected_meta=meta)
-    check_root(stem.parent, len(source) * _BYTES_PER_SHAPE)
+        out = read_collection(stem, expected_meta=meta)
+        out._instances.update((ip.name, ip) for ip in ips)  # the inner products the caller gave, for new shapes
+        return out
+    check_root(stem.parent, len(source) * BYTES_PER_SHAPE)
     remove_stale_tmp(stem.parent.glob(f".{stem.name}.part-*.tmp-*"))  # parts of killed builds
     if rebuild:
         _remove_parts(stem)
-    results = _compute(source, stem, resolution, maps, k, n_jobs, chunk, progress)
+    results = _compute(source, stem, resolution, maps, k, n_jobs, chunk, progress, ips)
     operators, error, coverage, orientation = (np.concatenate(r) for r in zip(*results))
     if len(operators) != len(source):  # the parts must tile the shapes exactly
         raise CollectionError(
             f"the parts of {stem} hold {len(operators)} shapes, not {len(source)}; pass rebuild=True."
         )
     params = dict(source.params, map_error=error, map_coverage=coverage, map_orientation=orientation)
-    out = replace(source, operators=operators, params=params, meta=meta)
+    names = tuple(ip.name for ip in ips)
+    out = replace(
+        source,
+        operators=operators,
+        params=params,
+        meta=meta,
+        kinds=names,
+        digests=dict(zip(names, map(channel_digest, ips))),
+    )
+    out._instances.update(zip(names, ips))
     if save_or_warn(out, stem):  # else the parts stay, and the next call assembles them without recomputing
         _remove_parts(stem)
     return out
 
 
-def _fingerprint(source: Collection, k: int) -> str:
+def _fingerprint(source: Collection, k: int, ips) -> str:
     """What the operators depend on: the shapes' generator parameters, the base, the versions of the map's code
     (:data:`opnet.matching.MAP_VERSION`, pyFM's), of the 2k/5k models'
-    (:func:`~opnet.data.anny_adapter.model_code_version`) and ``k``; 12 hex digits.
+    (:func:`~opnet.data.anny_adapter.model_code_version`), ``k`` and, for channels other than :data:`opnet.KINDS`,
+    their names and digests; 12 hex digits.
     """
     from importlib.metadata import version
 
@@ -158,6 +179,8 @@ def _fingerprint(source: Collection, k: int) -> str:
     h = hashlib.sha256(f"{_FORMAT}-{MAP_VERSION}-{version('pyfmaps')}-{model_code_version()}-{k}".encode())
     for a in (source.params["phenotypes"], source.params["controls"], source.base_basis.evecs):
         h.update(np.ascontiguousarray(a).data)
+    if tuple(ip.name for ip in ips) != KINDS:  # the paper's three keep the stems cached before channels were data
+        h.update(repr([(ip.name, channel_digest(ip)) for ip in ips]).encode())
     return h.hexdigest()[:12]
 
 
@@ -166,7 +189,9 @@ def _remove_parts(stem: Path) -> None:
         part.unlink(missing_ok=True)  # a concurrent build of the same stem may have removed it
 
 
-def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int, n_jobs: int, chunk: int, progress):
+def _compute(
+    source: Collection, stem: Path, resolution: str, maps: str, k: int, n_jobs: int, chunk: int, progress, ips
+):
     """Per chunk of shapes ``(operators, map_error, coverage, orientation)``, read from finished parts or computed
     (in ``n_jobs`` processes) and stored as parts.
     """
@@ -202,7 +227,7 @@ def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int,
         vertices = generate_shapes(
             source, source.params["phenotypes"][sl], source.params["controls"][sl], resolution=resolution
         )
-        return joblib.delayed(_map_chunk)(source.base_basis, spectrum, vertices, faces, true_to_base)
+        return joblib.delayed(_map_chunk)(source.base_basis, spectrum, vertices, faces, true_to_base, ips)
 
     with joblib.Parallel(n_jobs=n_jobs, return_as="generator") as parallel:
         for s, result in zip(todo, parallel(task(s) for s in todo)):
@@ -213,9 +238,9 @@ def _compute(source: Collection, stem: Path, resolution: str, maps: str, k: int,
     return [done[s] for s in starts]
 
 
-def _map_chunk(base_basis, spectrum, vertices, faces, true_to_base):
-    """Operators ``(c, 3, k0, k0)`` float32, map errors (metres), coverage and orientation ``(c,)`` of ``c`` shapes
-    ``vertices`` ``(c, n, 3)`` on ``faces``: through computed maps with the base's ``spectrum`` (its first ``k``
+def _map_chunk(base_basis, spectrum, vertices, faces, true_to_base, ips):
+    """Operators ``(c, len(ips), k0, k0)`` float32, map errors (metres), coverage and orientation ``(c,)`` of ``c``
+    shapes ``vertices`` ``(c, n, 3)`` on ``faces``: through computed maps with the base's ``spectrum`` (its first ``k``
     eigenpairs), or through the true map ``true_to_base`` when ``spectrum`` is None.
     """
     from ..matching import SurfaceMap, compute_map, operators_through_map
@@ -232,4 +257,4 @@ def _map_chunk(base_basis, spectrum, vertices, faces, true_to_base):
         q = sm.quality()
         maps.append(sm)
         stats.append((sm.error(true).mean() * scale, q["coverage"], q["orientation"]))
-    return (operators_through_map(maps).astype(np.float32), *(np.array(x) for x in zip(*stats)))
+    return (operators_through_map(maps, ips).astype(np.float32), *(np.array(x) for x in zip(*stats)))

@@ -8,14 +8,19 @@ generated from. On disk, a collection stored under the path ``stem`` is two file
 
 ``stem.<sha>.npz`` (``<sha>``: the first 12 hex digits of its SHA-256)
     ``vertices`` (N, n, 3) float32 (metres for the body models), ``faces`` (m, 3) int64,
-    ``operators`` (N, 3, k, k) float32 (channels: area, conformal, extrinsic),
+    ``operators`` (N, C, k, k) float32 (channels: the manifest's ``channels``, by default area, conformal,
+    extrinsic),
     ``split`` (N,) str, ``subcollection`` (N,) str, ``subject`` (N,) str, ``base_vertices`` (n, 3) float64,
     ``base_evals`` (k,), ``base_evecs`` (n, k), ``base_mass`` (n,) float64 (the base
     eigenbasis every consumer must use), ``eval_subset`` (indices of the evaluation
     subset), and ``param_<name>`` arrays (N, ...) of per-shape parameters.
 ``stem.json``
     the manifest: format and generator versions, name, preset, resolution, seed, k, the
-    shapes of the arrays, the operators' channel order, the data file's name and its full SHA-256.
+    shapes of the arrays, the operators' channels (``channels``: names in order; ``channel_digests``: each one's
+    :func:`opnet.channel_digest`), the data file's name and its full SHA-256.
+
+Channels added later (:meth:`Collection.with_kinds`) are cached beside these two files, one file per channel
+(:mod:`opnet.data.channels`); a collection written before channels were recorded holds :data:`opnet.KINDS`.
 
 Format 2 (before the ``subject`` array) is read too: each shape's subject is then its sub-collection's name up to
 the ``/`` (a folder collection's: the whole sub-collection), as the generators named them.
@@ -42,9 +47,11 @@ from pathlib import Path
 import numpy as np
 
 from .._files import remove_stale_tmp, tmp_name
+from ..inner_products import INNER_PRODUCTS, ChannelError, channel_digest, channel_identity, get_inner_product
 from ..mesh import Mesh
 from ..shape_difference import KINDS
 from ..spectral import Eigenbasis
+from . import channels as _channels
 
 __all__ = [
     "Collection",
@@ -85,6 +92,12 @@ class Collection:
     eval_subset: np.ndarray
     params: dict = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
+    kinds: tuple = KINDS
+    digests: dict = field(default_factory=dict)
+    # where it is stored, (stem, data SHA-256), so that channels added later are cached beside it
+    _stored: tuple | None = field(default=None, init=False, repr=False)
+    # the inner products given to with_kinds this session, by name (what apps and refinement recompute with)
+    _instances: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
         if not isinstance(self.base_basis, Eigenbasis):
@@ -95,6 +108,18 @@ class Collection:
         lengths = {f: len(getattr(self, f)) for f in ("vertices", "operators", "split", "subcollection", "subject")}
         if len(set(lengths.values())) != 1:
             raise ValueError(f"a collection's per-shape arrays must have one length each, got {lengths}.")
+        if isinstance(self.kinds, str) or not all(isinstance(c, str) for c in self.kinds):
+            raise TypeError(f"kinds must be a tuple of channel names, got {self.kinds!r}.")
+        self.kinds = tuple(self.kinds)
+        if len(set(self.kinds)) != len(self.kinds) or np.ndim(self.operators) != 4:
+            raise ValueError(f"kinds must name each channel once, and operators be (N, C, k, k); got {self.kinds}.")
+        if self.operators.shape[1] != len(self.kinds):
+            raise ValueError(
+                f"operators hold {self.operators.shape[1]} channels (shape {self.operators.shape}) but kinds names "
+                f"{len(self.kinds)}: {self.kinds}."
+            )
+        recorded = dict(self.digests)
+        self.digests = {c: recorded.get(c) or _builtin_digest(c) for c in self.kinds}
 
     def __len__(self) -> int:
         return len(self.vertices)
@@ -146,7 +171,7 @@ class Collection:
             raise ValueError("indices has repeated shapes; give each shape once (np.unique(indices)).")
         position = {int(i): j for j, i in enumerate(idx)}
         eval_subset = np.sort([position[i] for i in self.eval_subset.tolist() if i in position]).astype(np.int64)
-        return Collection(
+        out = Collection(
             self.vertices[idx],
             self.faces,
             self.operators[idx],
@@ -157,14 +182,152 @@ class Collection:
             eval_subset,
             {k: v[idx] for k, v in self.params.items()},
             dict(self.meta),
+            self.kinds,
+            dict(self.digests),
         )
+        out._instances.update(self._instances)
+        return out
+
+    # ------------------------------------------------------------------------------------------------------
+    # channels
+
+    def channel_names(self, channels) -> tuple[str, ...]:
+        """The names of ``channels`` asked of this collection, in that order: names it holds, instances (their
+        recorded implementation checked), ``"area,extrinsic"``, a short name of :data:`opnet.CHANNEL_SETS` or
+        ``"module:Class"``. A channel it does not hold raises a ``ChannelError`` naming :meth:`with_kinds`.
+        """
+        return tuple(name for name, _ in self._resolve(channels))
+
+    def channel_indices(self, channels) -> list[int]:
+        """Positions of ``channels`` (as in :meth:`channel_names`) on the second axis of :attr:`operators`."""
+        return [self.kinds.index(name) for name in self.channel_names(channels)]
+
+    def operators_for(self, channels) -> np.ndarray:
+        """The operators ``(N, len(channels), k, k)`` float32 of ``channels`` (as in :meth:`channel_names`), in the
+        order asked (a copy unless they are all of :attr:`operators`, in order).
+        """
+        idx = self.channel_indices(channels)
+        return self.operators if idx == list(range(len(self.kinds))) else self.operators[:, idx]
+
+    def inner_products(self, channels=None) -> list:
+        """The inner products of ``channels`` (default all of :attr:`kinds`): what the operators of a new shape are
+        computed with (the algebra of :mod:`opnet.apps`, refinement). A channel of your own that was read back
+        from disk is known once you pass its instance (or register it, :func:`opnet.register_inner_product`).
+        """
+        out = []
+        for name, ip in self._resolve(self.kinds if channels is None else channels):
+            if ip is None:
+                raise ChannelError(
+                    f"the collection holds the operators of channel {name!r} but not its inner product (it was read "
+                    f"from disk): pass the instance (collection.with_kinds([..., MyIP()]) or channels=[MyIP()]) or "
+                    "opnet.register_inner_product(MyIP()) to compute it for new shapes."
+                )
+            out.append(ip)
+        return out
+
+    def identities(self, channels=None) -> list[dict]:
+        """``[{"name", "digest", "spec"}]`` of ``channels`` (default all of :attr:`kinds`): what a run records of its
+        input (``spec``: ``"module:Class"`` when the inner product is known here and importable, else ``None``).
+        """
+        out = []
+        for name, ip in self._resolve(self.kinds if channels is None else channels):
+            spec = None if ip is None else channel_identity(ip)["spec"]
+            out.append({"name": name, "digest": self.digests.get(name), "spec": spec})
+        return out
+
+    def _resolve(self, channels) -> list:
+        return _channels.resolve(channels, self.kinds, self.digests, self._instances)
+
+    def with_kinds(self, kinds, *, recompute: bool = False, n_jobs: int | None = None, progress=None) -> Collection:
+        """A copy of this collection with the channels ``kinds`` (names, instances, classes or ``"module:Class"``), in
+        that order: the ones it holds are kept, the others computed for every shape (fast path, ``project_batch`` where
+        the inner product has one, else shape by shape in ``n_jobs`` processes, with a progress bar).
+
+        A stored collection caches each new channel beside it (one file per channel, keyed by the channel's digest:
+        :mod:`opnet.data.channels`), so asking again reads it back and nothing of the collection is rewritten.
+        ``recompute=True`` computes the channels given as inner products (instances, classes, ``"module:Class"``)
+        again, even where it holds one of that name or a cache file has them (e.g. after editing a helper the class
+        calls); names it holds are kept. A channel that is not invariant to rigid motions warns.
+
+        Returns a new :class:`Collection` whose :attr:`kinds` are ``kinds`` and :attr:`operators`
+        ``(N, len(kinds), k, k)``; the vertices and splits are shared with this one.
+        """
+        items = _channels.split_channels(kinds)
+        if not items:
+            raise ChannelError("kinds is empty: ask for at least one channel (e.g. ['area', MyIP()]).")
+        columns, names, digests, instances = [], [], {}, dict(self._instances)
+        for item in items:
+            held = isinstance(item, str) and item in self.kinds  # a name it holds: kept as it is
+            if held:
+                ((name, ip),) = self._resolve([item])
+            else:
+                ip = get_inner_product(item)
+                name = ip.name
+                if name in self.kinds and not recompute:
+                    self._resolve([ip])  # refuses another implementation of a channel it holds
+            if name in names:
+                raise ChannelError(f"kinds names the channel {name!r} twice; give each once.")
+            if name in self.kinds and (held or not recompute):
+                columns.append(self.operators[:, self.kinds.index(name)])
+                digests[name] = self.digests.get(name)
+            else:
+                columns.append(self._compute_channel(ip, n_jobs=n_jobs, progress=progress, cached=not recompute))
+                digests[name] = channel_digest(ip)
+            if ip is not None:
+                instances[name] = ip
+            names.append(name)
+        out = Collection(
+            self.vertices,
+            self.faces,
+            np.stack(columns, axis=1),
+            self.split,
+            self.subcollection,
+            self.subject,
+            self.base_basis,
+            self.eval_subset,
+            self.params,
+            dict(self.meta),
+            tuple(names),
+            digests,
+        )
+        out._stored, out._instances = self._stored, instances
+        return out
+
+    def _compute_channel(self, ip, *, n_jobs, progress, cached: bool = True) -> np.ndarray:
+        """One channel's operators ``(N, k, k)`` for every shape: read from the cache beside the stored collection
+        when there, else computed (and cached).
+        """
+        if "maps" in self.meta:
+            raise ChannelError(
+                f"this collection's operators come through maps from its shapes' {self.meta.get('map_resolution')} "
+                f"meshes; compute channel {ip.name!r} through the same maps: opnet.data.mapped_collection(source, "
+                f"..., kinds=[..., {type(ip).__name__}()])."
+            )
+        digest = channel_digest(ip)
+        shape = (len(self), self.base_basis.k, self.base_basis.k)
+        path = None if self._stored is None else _channels.cache_path(self._stored[0], ip.name, digest, self._stored[1])
+        if path is not None and cached:
+            stored = _channels.read_cached(path, ip.name, digest, shape)
+            if stored is not None:
+                return stored
+        if ip.name not in INNER_PRODUCTS:
+            _channels.warn_if_not_rigid(ip, self.base_basis)
+        operators = _channels.compute_operators(ip, self.base_basis, self.vertices, n_jobs=n_jobs, progress=progress)
+        if path is not None:
+            _channels.write_cached(path, ip.name, digest, operators)
+        return operators
 
     def __repr__(self) -> str:
         counts = {s: int(np.sum(self.split == s)) for s in SPLITS}
         return (
             f"Collection({self.meta.get('name', '?')!r}, preset={self.meta.get('preset')!r}, shapes={len(self)}, "
-            f"vertices={self.vertices.shape[1]}, k={self.base_basis.k}, splits={counts})"
+            f"vertices={self.vertices.shape[1]}, k={self.base_basis.k}, kinds={self.kinds}, splits={counts})"
         )
+
+
+def _builtin_digest(name: str) -> str | None:
+    """The digest of a built-in channel (what a collection that recorded none holds), ``None`` for another name."""
+    return channel_digest(INNER_PRODUCTS[name]) if name in INNER_PRODUCTS else None
 
 
 def default_root() -> Path:
@@ -234,7 +397,8 @@ def save_collection(coll: Collection, path) -> Path:
             data=data.name,
             sha256=digest,
             shapes={k: list(v.shape) for k, v in arrays.items()},
-            channels=list(KINDS),  # the order of the operators' second axis
+            channels=list(coll.kinds),  # the order of the operators' second axis
+            channel_digests={c: coll.digests.get(c) for c in coll.kinds},
         )
         tmp_manifest.write_text(json.dumps(manifest, indent=1, sort_keys=True, default=_json_scalar))
         os.replace(tmp_manifest, stem.with_name(stem.name + ".json"))  # the commit point
@@ -244,6 +408,10 @@ def save_collection(coll: Collection, path) -> Path:
     for old in _data_files(stem):
         if old != data:
             old.unlink(missing_ok=True)
+    for old in stem.parent.glob(f"{stem.name}.channel.*.npz"):  # channels cached for an earlier build
+        if not old.name.endswith(f".{digest[:12]}.npz"):
+            old.unlink(missing_ok=True)
+    coll._stored = (stem, digest)
     return stem.with_name(stem.name + ".json")
 
 
@@ -312,16 +480,18 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
             f"({type(exc).__name__}: {str(exc)[:200]}); {fix}."
         ) from None
     params = {k[len("param_") :]: data.pop(k) for k in list(data) if k.startswith("param_")}
-    if manifest.get("channels", list(KINDS)) != list(KINDS):  # format 2 before channels were recorded: KINDS
+    kinds = manifest.get("channels", list(KINDS))  # written before channels were recorded: KINDS
+    if not isinstance(kinds, list) or len(kinds) != data["operators"].shape[1] or len(set(kinds)) != len(kinds):
         raise CollectionError(
-            f"{stem} stores its operators in the channel order {manifest['channels']}, this opnet "
-            f"reads {list(KINDS)}; {fix}."
+            f"the manifest {manifest_path} names the channels {kinds!r} for operators of shape "
+            f"{data['operators'].shape}; {fix}."
         )
     if "subject" not in data:  # format 2: a generated collection names its sequences "<subject>/<motion>"
         sub = data["subcollection"]
         data["subject"] = sub if manifest.get("preset") == "folder" else np.array([s.split("/")[0] for s in sub])
-    meta = {k: v for k, v in manifest.items() if k not in ("sha256", "shapes", "format_version", "data", "channels")}
-    return Collection(
+    skip = ("sha256", "shapes", "format_version", "data", "channels", "channel_digests")
+    meta = {k: v for k, v in manifest.items() if k not in skip}
+    coll = Collection(
         data["vertices"],
         data["faces"],
         data["operators"],
@@ -332,11 +502,15 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
         data["eval_subset"],
         params,
         meta,
+        tuple(kinds),
+        manifest.get("channel_digests") or {},
     )
+    coll._stored = (stem, manifest["sha256"])
+    return coll
 
 
 # Stored bytes per generated shape, at most: a 5k-vertex body (60 kB) and its three 60 × 60 operators (43 kB).
-_BYTES_PER_SHAPE = 120_000
+BYTES_PER_SHAPE = 120_000
 
 
 def check_root(root: Path, needed: int) -> None:

@@ -5,25 +5,22 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from ..shape_difference import KINDS
-
 __all__ = ["OperatorDataset"]
 
 
 class OperatorDataset(torch.utils.data.Dataset):
     """Shapes of one split as ``(operators (C, k, k), vertices (n, 3))`` float32 tensors.
 
-    ``channels`` picks any subset of ``("area", "conformal", "extrinsic")``, returned in the order
-    given, so a model can be trained on Int, Ext or Int+Ext inputs (the paper's ablation).
+    ``channels`` picks any of the collection's channels (names or inner products,
+    :meth:`~opnet.data.storage.Collection.channel_names`), returned in the order given; default all of
+    ``collection.kinds``. So a model can be trained on Int, Ext or
+    Int+Ext inputs (the paper's ablation), or on a channel of your own.
     """
 
-    def __init__(self, collection, split: str = "train", channels=KINDS):
-        unknown = set(channels) - set(KINDS)
-        if unknown or not channels:
-            raise ValueError(f"channels must be a non-empty subset of {KINDS}, got {channels!r}.")
+    def __init__(self, collection, split: str = "train", channels=None):
         self.indices = collection.indices(split)
-        self.channels = tuple(channels)
-        chans = [KINDS.index(c) for c in self.channels]
+        self.channels = collection.channel_names(collection.kinds if channels is None else channels)
+        chans = collection.channel_indices(self.channels)
         self.operators = torch.from_numpy(
             np.ascontiguousarray(collection.operators[self.indices][:, chans], np.float32)
         )

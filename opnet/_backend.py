@@ -1,0 +1,126 @@
+"""The few array operations that differ between numpy and torch, so that each built-in inner product is written
+once (:mod:`opnet.inner_products`) and runs on numpy arrays (``project``, float64) and on torch tensors
+(``project_torch``, differentiable, any device).
+
+:func:`weighted_gram`, :func:`einsum` and :func:`edges` dispatch on the type of their argument; :func:`areas` and
+:func:`edge_weights` are the torch forms that :func:`opnet.vertex_areas` and :func:`opnet.cotan_edge_weights` call
+for a tensor. torch is imported only when a tensor is passed, so the numpy path never loads it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .mesh import corner_edges, unique_edges
+
+__all__ = ["is_tensor", "weighted_gram", "areas", "edges", "edge_weights", "einsum"]
+
+# Entries of the column-product table built at once in numpy's batched product (bounds its memory to ~32 MB).
+_TABLE_ENTRIES = 4_000_000
+
+
+def is_tensor(x) -> bool:
+    """Whether ``x`` is a torch tensor (without importing torch)."""
+    return type(x).__module__.split(".")[0] == "torch"
+
+
+def einsum(spec: str, *operands):
+    """``numpy.einsum`` or ``torch.einsum``, by the first operand's type."""
+    if is_tensor(operands[0]):
+        import torch
+
+        return torch.einsum(spec, *operands)
+    return np.einsum(spec, *operands)
+
+
+def weighted_gram(phi, weights):
+    """``Φᵀ diag(w) Φ`` ``(..., k, k)`` for ``Φ`` ``(p, k)`` and weights ``(..., p)``.
+
+    numpy: for a batch of weight vectors the product is linear in ``w``, one matrix product ``w @ T`` with the
+    table ``T[p, (i, j)] = Φ[p, i] Φ[p, j]`` (upper triangle, built in chunks of rows), several times faster
+    than one product per shape. torch: one batched product (autograd through ``w``).
+    """
+    if is_tensor(weights):
+        return (phi.T * weights.unsqueeze(-2)) @ phi
+    if weights.ndim == 1:
+        return phi.T @ (weights[:, None] * phi)
+    k = phi.shape[1]
+    iu, ju = np.triu_indices(k)
+    flat = weights.reshape(-1, weights.shape[-1])
+    upper = np.zeros((len(flat), len(iu)))
+    step = max(1, _TABLE_ENTRIES // len(iu))
+    for s in range(0, phi.shape[0], step):
+        rows = phi[s : s + step]
+        upper += flat[:, s : s + step] @ (rows[:, iu] * rows[:, ju])
+    out = np.empty((len(flat), k, k))
+    out[:, iu, ju] = upper
+    out[:, ju, iu] = upper
+    return out.reshape(*weights.shape[:-1], k, k)
+
+
+def areas(vertices, faces):
+    """Barycentric lumped mass ``(..., n)`` (length²) of vertex tensors ``(..., n, 3)`` sharing ``faces`` ``(m, 3)``."""
+    faces = _long(faces, vertices)
+    v = vertices[..., faces, :]  # (..., m, 3, 3)
+    cross = _cross(v[..., 1, :] - v[..., 0, :], v[..., 2, :] - v[..., 0, :])
+    third = ((cross * cross).sum(-1) ** 0.5 / 6.0).unsqueeze(-1).expand(*cross.shape[:-1], 3)
+    out = vertices.new_zeros(vertices.shape[:-1])
+    return out.index_add_(-1, faces.reshape(-1), third.reshape(*third.shape[:-2], -1))
+
+
+def edges(faces):
+    """The sorted unique edges ``(e, 2)`` of ``faces`` (:func:`opnet.mesh.unique_edges`), in the type of ``faces``."""
+    if not is_tensor(faces):
+        return unique_edges(faces)
+    return _topology(faces)[0]
+
+
+def edge_weights(vertices, faces):
+    """Cotan weights ``(cot α + cot β) / 2`` ``(..., e)`` of vertex tensors, on the edges :func:`edges` of ``faces``."""
+    faces = _long(faces, vertices)
+    _, corner_edge = _topology(faces)
+    v = vertices[..., faces, :]  # (..., m, 3, 3)
+    cots = []
+    for c in range(3):
+        e1, e2 = v[..., (c + 1) % 3, :] - v[..., c, :], v[..., (c + 2) % 3, :] - v[..., c, :]
+        cross = _cross(e1, e2)
+        cots.append((e1 * e2).sum(-1) / (cross * cross).sum(-1) ** 0.5)
+    import torch
+
+    cot = torch.stack(cots, dim=-1)  # (..., m, 3): the corner order of the sparse corner-to-edge matrix
+    out = vertices.new_zeros(*vertices.shape[:-2], int(corner_edge.max()) + 1)
+    return out.index_add_(-1, corner_edge, 0.5 * cot.reshape(*cot.shape[:-2], -1))
+
+
+def _cross(a, b):
+    import torch
+
+    return torch.linalg.cross(a, b)
+
+
+def _long(faces, like):
+    import torch
+
+    return torch.as_tensor(faces, dtype=torch.long, device=like.device)
+
+
+_TOPOLOGY: dict = {}
+
+
+def _topology(faces):
+    """``(edges (e, 2), corner_edge (3m,))`` long tensors on the faces' device: the unique edges and the edge
+    opposite each corner. Cached by the faces' contents (a few triangulations per session).
+    """
+    import torch
+
+    f = faces.detach().cpu().numpy().astype(np.int64)
+    key = (f.shape, f.tobytes(), str(faces.device))
+    if key not in _TOPOLOGY:
+        if len(_TOPOLOGY) >= 8:
+            _TOPOLOGY.clear()
+        e = unique_edges(f)
+        _TOPOLOGY[key] = (
+            torch.as_tensor(e, dtype=torch.long, device=faces.device),
+            torch.as_tensor(corner_edges(f, e), dtype=torch.long, device=faces.device),
+        )
+    return _TOPOLOGY[key]

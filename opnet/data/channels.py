@@ -1,0 +1,208 @@
+"""A collection's channels as data: which operators it holds (names and implementation digests), how a channel's
+operators are computed for every shape, and where they are cached.
+
+A stored collection keeps the channels it was built with in its own data file. A channel added later with
+:meth:`~opnet.data.Collection.with_kinds` is cached beside it, one file per channel::
+
+    <stem>.channel.<name>.<digest>.<data>.npz    operators (N, k, k) float32, and its identity
+
+``<name>`` is the channel's name made safe for a file name, ``<digest>`` its :func:`opnet.channel_digest` (16 hex
+digits), ``<data>`` the first 12 hex digits of the collection's data checksum: a channel computed by another
+implementation, or for another build of the collection, is another file and is never read for this one. The file
+is written atomically (a temporary name, then a rename), so an interrupted computation leaves nothing that loads,
+and adding a channel never rewrites the collection.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from .._checks import warn_user
+from .._files import atomic_write
+from ..inner_products import (
+    ChannelError,
+    InnerProduct,
+    channel_digest,
+    checked_gram,
+    get_inner_product,
+    known_inner_products,
+    rigid_motion_change,
+)
+from ..shape_difference import CHANNEL_SETS, base_pinvs, fast_path
+
+__all__ = [
+    "split_channels",
+    "resolve",
+    "compute_operators",
+    "cache_path",
+    "read_cached",
+    "write_cached",
+    "warn_if_not_rigid",
+    "RIGID_TOLERANCE",
+]
+
+#: Relative change of ``Φᵀ M Φ`` under a rigid motion of the base above which adding a channel warns.
+RIGID_TOLERANCE = 1e-6
+# Shapes per task when a channel without project_batch is computed shape by shape in processes.
+_CHUNK = 32
+
+
+def split_channels(channels) -> list:
+    """``"area,extrinsic"``, a short name of :data:`opnet.CHANNEL_SETS` (``"A+E"``), one channel or
+    a sequence of channels → a list of channels (names, instances, classes).
+    """
+    if isinstance(channels, str):
+        if channels in CHANNEL_SETS:
+            return list(CHANNEL_SETS[channels])
+        return [c.strip() for c in channels.split(",")]
+    if isinstance(channels, InnerProduct) or (isinstance(channels, type) and issubclass(channels, InnerProduct)):
+        return [channels]
+    return list(channels)
+
+
+def resolve(channels, kinds: tuple, digests: dict, instances: dict, *, where: str = "the collection") -> list:
+    """``[(name, instance or None)]`` of ``channels`` asked of a collection holding ``kinds`` (``digests``: their
+    recorded digests; ``instances``: the inner products it was given this session), in the order asked.
+
+    A name it holds needs no instance (``None`` when none is known); an instance must have the digest it recorded.
+    A channel it does not hold raises a :class:`~opnet.inner_products.ChannelError` naming ``with_kinds``.
+    """
+    items = split_channels(channels)
+    if not items:
+        raise ChannelError(f"no channels asked for; name at least one of {where}'s {list(kinds)}.")
+    out = []
+    for item in items:
+        if isinstance(item, str) and item in kinds:
+            name, ip = item, instances.get(item) or known_inner_products().get(item)
+            if ip is not None and digests.get(name) not in (None, channel_digest(ip)):
+                ip = None  # the registered one is another implementation: the stored operators still select
+        else:
+            try:
+                ip = get_inner_product(item)
+            except ChannelError as exc:
+                raise ChannelError(f"{exc} {where.capitalize()} holds {list(kinds)}.") from None
+            name = ip.name
+            if name not in kinds:
+                raise ChannelError(
+                    f"{where} holds the channels {list(kinds)}, not {name!r}: add it with "
+                    f"collection.with_kinds([*collection.kinds, {_show(item)}])."
+                )
+            recorded = digests.get(name)
+            if recorded is not None and recorded != channel_digest(ip):
+                raise ChannelError(
+                    f"{where}'s channel {name!r} was computed by another implementation of it (digest {recorded}; "
+                    f"this {type(ip).__name__} has {channel_digest(ip)}): its code or parameters changed since. "
+                    "Compute it again with collection.with_kinds([...], recompute=True), or give the new class "
+                    "another name."
+                )
+        out.append((name, ip))
+    names = [n for n, _ in out]
+    if len(set(names)) != len(names):
+        raise ChannelError(f"channels names a channel twice: {names}; give each once.")
+    return out
+
+
+def _show(item) -> str:
+    if isinstance(item, InnerProduct):
+        return f"{type(item).__name__}()"
+    return repr(item)
+
+
+def warn_if_not_rigid(ip: InnerProduct, basis) -> None:
+    """Warn when ``ip`` changes under a rigid motion of the base shape: OperatorNet's loss does not see rigid motions,
+    so its input should not either.
+    """
+    mesh = basis.mesh
+    change = rigid_motion_change(ip, mesh.vertices, mesh.faces, basis.evecs)
+    if change > RIGID_TOLERANCE:
+        warn_user(
+            f"channel {ip.name!r} is not invariant to rigid motions: Φᵀ M Φ of the base changes by {change:.2g} "
+            "(relative) under a rotation and translation. OperatorNet's loss is rigid-invariant, so these operators "
+            "carry how each shape is placed, which the network is not asked to recover; check it with "
+            "opnet.testing.check_inner_product."
+        )
+
+
+def compute_operators(
+    ip: InnerProduct, basis, vertices: np.ndarray, *, n_jobs: int | None = None, progress: bool | None = None
+) -> np.ndarray:
+    """Shape differences ``(N, k, k)`` float32 of one channel for shapes ``(N, n, 3)`` on the base's faces.
+
+    With a :meth:`~opnet.InnerProduct.project_batch` of its own, in batches (the fast path); otherwise shape by
+    shape, in ``n_jobs`` processes (joblib's convention, default all cores; 1: in this process), with a progress
+    bar over the shapes.
+    """
+    vertices = np.asarray(vertices)
+    if type(ip).project_batch is not InnerProduct.project_batch:
+        out = np.empty((len(vertices), basis.k, basis.k), np.float32)
+        starts = range(0, len(vertices), 256)
+        for s in tqdm(starts, desc=f"channel {ip.name}", unit="batch", disable=_hidden(progress, len(starts))):
+            out[s : s + 256] = fast_path(basis, vertices[s : s + 256].astype(np.float64), [ip], batch_size=64)[:, 0]
+        return out
+    k0_pinv = base_pinvs(basis, [ip])[0]
+    chunks = [vertices[s : s + _CHUNK] for s in range(0, len(vertices), _CHUNK)]
+    bar = tqdm(total=len(vertices), desc=f"channel {ip.name}", unit="shape", disable=_hidden(progress, len(chunks)))
+    parts = []
+    try:
+        if n_jobs == 1 or len(chunks) == 1:
+            results = (_project_chunk(ip, k0_pinv, basis.mesh.faces, basis.evecs, c) for c in chunks)
+        else:
+            from .._extras import require
+
+            joblib = require("joblib", "Collection.with_kinds (channels without project_batch, in processes)")
+            parallel = joblib.Parallel(n_jobs=-1 if n_jobs is None else n_jobs, return_as="generator")
+            task = joblib.delayed(_project_chunk)
+            results = parallel(task(ip, k0_pinv, basis.mesh.faces, basis.evecs, c) for c in chunks)
+        for part in results:
+            parts.append(part)
+            bar.update(len(part))
+    finally:
+        bar.close()
+    return np.concatenate(parts) if parts else np.zeros((0, basis.k, basis.k), np.float32)
+
+
+def _hidden(progress, batches: int) -> bool:
+    return not (batches > 1 if progress is None else progress)
+
+
+def _project_chunk(ip, k0_pinv, faces, evecs, vertices) -> np.ndarray:
+    return np.stack(
+        [k0_pinv @ checked_gram(ip, "project", v.astype(np.float64), faces, evecs) for v in vertices]
+    ).astype(np.float32)
+
+
+def cache_path(stem: Path, name: str, digest: str, data_sha: str) -> Path:
+    """Where the operators of channel ``name`` (``digest``) of the collection stored under ``stem`` are cached."""
+    safe = re.sub(r"[^A-Za-z0-9_-]+", "_", name).strip("_") or "channel"
+    return stem.with_name(f"{stem.name}.channel.{safe}.{digest}.{data_sha[:12]}.npz")
+
+
+def read_cached(path: Path, name: str, digest: str, shape: tuple) -> np.ndarray | None:
+    """The cached operators ``shape`` at ``path`` when they are this channel's (else ``None``: computed again)."""
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path) as z:
+            identity = json.loads(str(z["identity"]))
+            operators = z["operators"]
+    except (OSError, ValueError, KeyError, EOFError):
+        return None  # damaged: it is computed again and replaced
+    if identity.get("name") != name or identity.get("digest") != digest or operators.shape != shape:
+        return None
+    return operators
+
+
+def write_cached(path: Path, name: str, digest: str, operators: np.ndarray) -> bool:
+    """Cache one channel's operators at ``path`` atomically; a failed write warns (the result is still returned)."""
+    identity = json.dumps({"name": name, "digest": digest})
+    try:
+        atomic_write(path, lambda f: np.savez(f, operators=operators.astype(np.float32), identity=np.array(identity)))
+    except OSError as exc:
+        warn_user(f"channel {name!r} could not be cached at {path} ({exc}); it will be computed again.")
+        return False
+    return True

@@ -1,0 +1,215 @@
+"""The reproduction's figures (PNG, under ``OUT/figures``): training curves and reconstructions coloured by error,
+the ablation's heat map, the applications' interpolation strips and analogy grids, refinement curves and steps, and
+shapes given on other triangulations.
+
+matplotlib and pyvista (the ``viz`` extra) are imported when a figure is drawn, not with this module.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .._extras import require
+from ..evaluate import evenly_spaced, operatornet_method, test_set_indices
+from .paper import PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS
+from .report import ablation_table
+
+__all__ = [
+    "table1_figures",
+    "ablation_figure",
+    "application_figures",
+    "refinement_figures",
+    "refinement_curves",
+    "snapshot_steps",
+    "discretisation_figure",
+]
+
+
+def table1_figures(out: Path, coll, ours, nn, histories: dict) -> None:
+    """``training_curves.png`` (``histories``: name → history), and ``reconstructions_<split>.png``: three shapes of
+    ``test`` and ``test_subjects`` reconstructed by ``ours`` and ``nn`` (:class:`opnet.evaluate.Method`), coloured by
+    error. Written under ``out/figures``.
+    """
+    plt = require("matplotlib.pyplot", "opnet.reproduce's figures")
+
+    from ..plotting import headless, plot_history, plot_reconstructions
+
+    fig_dir = out / "figures"
+    fig_dir.mkdir(exist_ok=True)
+    fig = plot_history(histories)
+    fig.savefig(fig_dir / "training_curves.png", dpi=120)
+    plt.close(fig)
+    headless()
+    for split in ("test", "test_subjects"):
+        idx = test_set_indices(coll, split)
+        if len(idx) == 0:
+            continue
+        pick = evenly_spaced(idx, 3)
+        plotter = plot_reconstructions(
+            coll.vertices[pick],
+            {ours.name: ours.reconstruct(pick), "NN": nn.reconstruct(pick)},
+            coll.faces,
+            titles=[str(coll.subcollection[i]) for i in pick],
+        )
+        plotter.screenshot(str(fig_dir / f"reconstructions_{split}.png"))
+        plotter.close()
+
+
+def ablation_figure(rows):
+    """The ablation's heat map (:func:`opnet.plotting.plot_ablation` of :func:`ablation_table`): a matplotlib
+    figure.
+    """
+    from ..plotting import plot_ablation
+
+    return plot_ablation(
+        ablation_table(rows),
+        [f"Conv. {'×'.join(str(8 * 2**i) for i in range(d))}" for d in PAPER_ABLATION_DEPTHS],
+        list(PAPER_ABLATION_SETS),
+    )
+
+
+def application_figures(out: Path, coll, methods, quads, paths) -> None:
+    """``interpolation_<kind>.png`` (each method on the path of ``paths`` that moves most) and ``analogy_<kind>.png``
+    (each method on the first three questions of ``quads``), written in ``out``; ``methods``:
+    :class:`opnet.apps.ShapeAlgebra` objects.
+    """
+    from ..metrics import d_R
+    from ..plotting import headless, plot_analogies, plot_interpolations
+
+    headless()
+    out.mkdir(parents=True, exist_ok=True)
+    for P in paths:
+        i = int(np.argmax(d_R(P.truth[:, 0], P.truth[:, -1])))  # the path that moves most
+        plotter = plot_interpolations(
+            {m.name: m.interpolate(P.truth[i, 0], P.truth[i, -1], P.t) for m in methods},
+            coll.faces,
+            P.t,
+            truth=P.truth[i],
+        )
+        plotter.screenshot(str(out / f"interpolation_{P.kind}.png"))
+        plotter.close()
+    for Q in quads:
+        q = min(3, len(Q))
+        plotter = plot_analogies(
+            Q.A[:q],
+            Q.B[:q],
+            Q.C[:q],
+            {m.name: m.analogy(Q.A[:q], Q.B[:q], Q.C[:q]) for m in methods},
+            coll.faces,
+            truth=Q.X[:q],
+        )
+        plotter.screenshot(str(out / f"analogy_{Q.kind}.png"))
+        plotter.close()
+
+
+def refinement_curves(
+    coll, idx, inits: dict, steps: int, snapshot_steps=(), *, device="cpu", **options
+) -> tuple[dict, dict]:
+    """Run :func:`opnet.reconstruct` (with ``options``: ``channels``, default all of the collection's, ``optimizer``,
+    ``smoothness``...) on shapes ``idx`` from each start in ``inits`` (name → ``"base"`` or vertices
+    ``(len(idx), n, 3)``), recording after every step the mean relative operator mismatch and the mean ``d_R``.
+    Returns ``curves`` (name → ``step``, ``mismatch``, ``d_R`` lists, for
+    :func:`opnet.plotting.plot_refinement_curves`) and ``snapshots`` (name → step → vertices of the first shape).
+    """
+    from ..geometric import reconstruct
+    from ..metrics import d_R
+
+    options = dict(options, channels=coll.inner_products(options.get("channels")))
+    gt = coll.vertices[idx].astype(np.float64)
+    curves, snapshots = {}, {}
+    for name, init in inits.items():
+        c, snap = dict(step=[], mismatch=[], d_R=[]), {}
+
+        def record(step, X, mismatch, c=c, snap=snap):
+            c["step"].append(step)
+            c["mismatch"].append(float(mismatch.mean()))
+            c["d_R"].append(float(d_R(gt, X.cpu().numpy()).mean()))
+            if step in snapshot_steps:
+                snap[step] = X[0].cpu().numpy()
+
+        reconstruct(
+            coll.operators_for(options["channels"])[idx],
+            coll.base_basis,
+            init=init,
+            steps=steps,
+            callback=record,
+            progress=False,
+            batch_size=len(idx),
+            device=device,
+            **options,
+        )  # one batch: one curve
+        curves[name], snapshots[name] = c, snap
+    return curves, snapshots
+
+
+def snapshot_steps(steps: int) -> list[int]:
+    """The steps shown in refinement figures: 0, 10, 100, ... up to ``steps``, and ``steps`` itself."""
+    return sorted({s for s in (0, 10, 100, 1000) if s <= steps} | {steps})
+
+
+def refinement_figures(out: Path, coll, net_method, steps: int, *, device="cpu", **options) -> None:
+    """``refinement_curves.png`` (mismatch and d_R over ``steps`` steps of :func:`refinement_curves` with
+    ``options``, from the base and from ``net_method``'s output, on up to 8 test shapes) and ``refinement_steps.png``
+    (one shape after 0, 10, 100... steps, coloured by error), under ``out/figures``.
+    """
+    plt = require("matplotlib.pyplot", "opnet.reproduce's figures")
+
+    from ..plotting import headless, plot_reconstructions, plot_refinement_curves
+
+    idx = test_set_indices(coll, "test")
+    idx = evenly_spaced(idx, 8)
+    shown = snapshot_steps(steps)
+    curves, snaps = refinement_curves(
+        coll,
+        idx,
+        {"from the base (geometric)": "base", f"from {net_method.name}": net_method.reconstruct(idx)},
+        steps,
+        shown,
+        device=device,
+        **options,
+    )
+    fig = plot_refinement_curves(curves)
+    fig.savefig(out / "figures" / "refinement_curves.png", dpi=120)
+    plt.close(fig)
+    headless()
+    name = f"from {net_method.name}"
+    plotter = plot_reconstructions(
+        coll.vertices[idx[:1]], {f"step {s}": snaps[name][s][None] for s in shown}, coll.faces, titles=["refined"]
+    )
+    plotter.screenshot(str(out / "figures" / "refinement_steps.png"))
+    plotter.close()
+
+
+def discretisation_figure(mapped, nets: dict, shapes: int = 3):
+    """The ``shapes`` shapes of ``mapped`` (:func:`opnet.data.mapped_collection` with computed maps) that are farthest
+    from the base (the most deformed), on their own mesh through their maps onto the base, and each network's
+    reconstruction (name → network) coloured by its error: a pyvista plotter
+    (:func:`opnet.plotting.plot_mapped_reconstructions`; the maps are computed again, as they were for its operators:
+    seconds each).
+    """
+    from ..data import Collection
+    from ..data.generators import generate_shapes
+    from ..data.humans import human_faces
+    from ..matching import compute_map
+    from ..mesh import Mesh
+    from ..metrics import d_R
+    from ..plotting import headless, plot_mapped_reconstructions
+    from ..spectral import eigenbasis
+
+    if not isinstance(mapped, Collection) or mapped.meta.get("maps") != "computed":
+        raise ValueError("mapped must be a collection from opnet.data.mapped_collection(..., maps='computed').")
+    if not isinstance(shapes, (int, np.integer)) or isinstance(shapes, bool) or not 1 <= shapes <= len(mapped):
+        raise ValueError(f"shapes must be an integer from 1 to len(mapped) = {len(mapped)}, got {shapes!r}.")
+    if not nets:
+        raise ValueError("nets is empty: give at least one name → network.")
+    headless()
+    base = np.broadcast_to(mapped.base_basis.mesh.vertices, mapped.vertices.shape)
+    far = np.sort(np.argsort(d_R(mapped.vertices, base))[-shapes:])
+    res, k = mapped.meta["map_resolution"], mapped.meta["map_k"]
+    fine = generate_shapes(mapped, mapped.params["phenotypes"][far], mapped.params["controls"][far], resolution=res)
+    spectrum = eigenbasis(mapped.base_basis.mesh, k)
+    maps = [compute_map(mapped.base_basis, Mesh(v, human_faces(res)), k=k, base_spectrum=spectrum) for v in fine]
+    recon = {name: operatornet_method(net, mapped, name).reconstruct(far) for name, net in nets.items()}
+    return plot_mapped_reconstructions(maps, recon, mapped.vertices[far])

@@ -1,0 +1,431 @@
+"""The reproduction's report: rows (and their context) → ``results.md`` text, the targets' verdicts, the ablation's
+table; :func:`write_results` writes ``results.json`` and ``results.md``.
+
+Rows are found by their structured fields, never by their display name (``method``, shown as it is):
+
+- runs (:meth:`opnet.experiments.RunSpec.fields`): ``run``, ``architecture``, ``variant``, ``channels`` (names; a
+  comma-joined string in older files), ``depth``, and the spec's ``group`` (``"table1"``, ``"comp"``: trained
+  through computed maps, ``"ablation"``);
+- baselines: ``baseline`` (``"nearest_neighbour"``, ``"base_shape"``, ``"geometric"``);
+- a network's output refined by :func:`opnet.reconstruct`: its run's fields (not its ``channels``: those of the
+  refinement) and ``refined`` ``True``;
+- the tables: ``table`` (``"table1"``, ``"ablation"``, ``"discretisation"``, ``"analogy"``, ``"interpolation"``).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .._files import atomic_write
+from ..evaluate import TEST_SETS, channel_label, channel_names
+from ..shape_difference import KINDS
+from .paper import PAPER_ABLATION, PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS, PAPER_TABLE1
+
+__all__ = [
+    "write_results",
+    "results_markdown",
+    "discretisation_markdown",
+    "applications_markdown",
+    "targets",
+    "ablation_table",
+    "row_channels",
+    "row_key",
+    "matches",
+    "paper_table1",
+    "PAPER_TABLE1_ROWS",
+]
+
+_SPLIT_NAMES = {"eval_subset": "50-shape subset", "test": "test", "test_subjects": "unseen subjects"}
+_KIND_NAMES = {
+    "analogy": {"pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)", "body": "body transfer (a,p):(b,p)::(a,q):(b,q)"},
+    "interpolation": {"pose": "one subject, pose to pose", "body": "one pose, subject to subject"},
+}
+
+
+def _network(channels, group: str = "table1") -> dict:
+    """The fields of the paper's model (depth 1) on ``channels``, trained in ``group``, its output not refined."""
+    return dict(architecture="operatornet", variant="paper", group=group, channels=channels, depth=1, refined=None)
+
+
+#: The rows standing for each row of the paper's Table 1 (:data:`~opnet.experiments.paper.PAPER_TABLE1`): the fields
+#: they have (:func:`matches`).
+PAPER_TABLE1_ROWS = {
+    "OperatorNet (Int+Ext)": _network(KINDS),
+    "OperatorNet (Int)": _network(("area", "conformal")),
+    "OperatorNet (Ext)": _network(("extrinsic",)),
+    "Nearest neighbour (Int+Ext)": dict(baseline="nearest_neighbour", channels=KINDS),
+    "OperatorNet (Comp)(Ext)": _network(("extrinsic",), "comp"),
+    "OperatorNet (Comp)(Int+Ext)": _network(KINDS, "comp"),
+}
+_PAPER = PAPER_TABLE1_ROWS["OperatorNet (Int+Ext)"]  # the paper's network: Table 1's reference
+_OURS = dict(_PAPER, variant="ours")  # this project's variant, on the same input
+_NN = PAPER_TABLE1_ROWS["Nearest neighbour (Int+Ext)"]
+
+
+def row_channels(row: dict) -> tuple[str, ...]:
+    """The channel names of a row: its ``channels`` list, or the comma-joined string of older ``results.json``."""
+    return channel_names(row.get("channels") or ())
+
+
+def matches(row: dict, **fields) -> bool:
+    """Whether ``row`` has each of ``fields`` (``None``: the field is absent or ``None``); ``channels`` are compared
+    as sets of names (:func:`row_channels`).
+    """
+    for key, want in fields.items():
+        if key == "channels":
+            if set(row_channels(row)) != set(channel_names(want)):
+                return False
+        elif row.get(key) != want:
+            return False
+    return True
+
+
+def row_key(row: dict) -> tuple:
+    """What tells the methods of one table apart: ``(run, baseline, refined)``; its rows share it across splits."""
+    return row.get("run"), row.get("baseline"), bool(row.get("refined"))
+
+
+def paper_table1(row: dict) -> tuple | None:
+    """The paper's Table 1 numbers (d_R ×10⁻⁴, d_V, d_E) of the row it stands for (:data:`PAPER_TABLE1_ROWS`), or
+    ``None``.
+    """
+    name = next((name for name, fields in PAPER_TABLE1_ROWS.items() if matches(row, **fields)), None)
+    return None if name is None else PAPER_TABLE1[name]
+
+
+def _find(rows, split=None, **fields) -> dict | None:
+    """The first of ``rows`` on ``split`` (any when ``None``) that :func:`matches` ``fields``."""
+    return next((r for r in rows if (split is None or r["split"] == split) and matches(r, **fields)), None)
+
+
+def ablation_table(rows) -> np.ndarray:
+    """The ablation's d_R ×10⁻⁴ on ``test`` as a ``(depths, sets)`` array (NaN where not trained yet): rows
+    ``PAPER_ABLATION_DEPTHS``, columns ``PAPER_ABLATION_SETS`` (the paper's grid, which the reproduction trains).
+    """
+    table = np.full((len(PAPER_ABLATION_DEPTHS), len(PAPER_ABLATION_SETS)), np.nan)
+    for r in rows:
+        if r.get("table") == "ablation":
+            names = row_channels(r)
+            column = next(i for i, v in enumerate(PAPER_ABLATION_SETS.values()) if set(v) == set(names))
+            table[PAPER_ABLATION_DEPTHS.index(r["depth"]), column] = 1e4 * r["d_R"]
+    return table
+
+
+def _fmt(v, scale=1.0, digits=3) -> str:
+    return "–" if v is None or not np.isfinite(v) else f"{scale * v:.{digits}g}"
+
+
+def write_results(out: Path, rows: list[dict], context: dict, seconds: float) -> None:
+    """Write ``out/results.json`` (the rows) and ``out/results.md`` (:func:`results_markdown` of ``context`` with
+    ``wall_seconds`` = ``seconds``), each atomically.
+    """
+    atomic_write(out / "results.json", lambda f: f.write(json.dumps(rows, indent=1).encode()))
+    md = results_markdown(rows, dict(context, wall_seconds=round(seconds, 1)))
+    atomic_write(out / "results.md", lambda f: f.write(md.encode()))
+
+
+def _encoder(depth: int) -> str:
+    return f"Conv. {'×'.join(str(8 * 2**k) for k in range(depth))}"
+
+
+def results_markdown(rows: list[dict], context: dict) -> str:
+    """``results.md``: Table 1 (per test set, with the paper's numbers), the targets, and the ablation.
+
+    ``context``: ``preset``, ``machine``, ``collection``, ``eval_subset`` (its size), ``wall_seconds`` and ``budget``
+    (the reproduction's budget as a dict: ``lr``, ``batch_size``, ``epochs``, ``ablation_epochs``...).
+    """
+    b = context["budget"]
+    lines = [
+        f"# OperatorNet reproduction · preset `{context['preset']}`",
+        "",
+        f"Machine: {context['machine']}. Wall time so far: {context['wall_seconds']:.0f} s "
+        "(data, training, evaluation; finished runs are reused, so a resumed call counts only what it did).",
+        "",
+        f"Data: {context['collection']}; the 50-shape evaluation subset has {context['eval_subset']} shapes.",
+        "",
+        f"Training: Adam, lr {b['lr']}, batch {b['batch_size']}, {b['epochs']} epochs for Table 1's OperatorNets "
+        f"({b.get('pointnet_epochs', b['epochs'])} for the PointNet AE) and {b['ablation_epochs']} for the ablation "
+        "(fewer, to keep the 28-network grid affordable); model "
+        "selection on `val`. The paper's numbers are on DFAUST, ours on `anny` humans: the scale (metres) is "
+        "alike, the data are not the same.",
+        "",
+        "## Table 1: shape reconstruction",
+        "",
+        "d_R ×10⁻⁴ (m²), mean (median in brackets).",
+        "",
+    ]
+    t1 = [r for r in rows if r.get("table") == "table1"]
+    keys = list(dict.fromkeys(row_key(r) for r in t1))
+    splits = [s for s in TEST_SETS if any(r["split"] == s for r in t1)]
+    head = (
+        "| method | "
+        + " | ".join(f"{_SPLIT_NAMES[s]}: d_R | d_V | d_E" for s in splits)
+        + " | paper d_R | d_V | d_E | train s | s/shape |"
+    )
+    lines += [head, "|---" * (2 + 3 * len(splits) + 4) + "|"]
+    subsampled = {}
+    for key in keys:
+        mine = [r for r in t1 if row_key(r) == key]
+        name = mine[0]["method"]
+        cells = []
+        for s in splits:
+            r = next((r for r in mine if r["split"] == s), None)
+            cells += (
+                [f"{_fmt(r['d_R'], 1e4)} ({_fmt(r['d_R_median'], 1e4)})", _fmt(r["d_V"]), _fmt(r["d_E"])]
+                if r
+                else ["–"] * 3
+            )
+            full = next((q["n_shapes"] for q in t1 if q["split"] == s and row_key(q) == keys[0]), None)
+            if r and full is not None and r["n_shapes"] < full:
+                where = f"{r['n_shapes']} of the {full} shapes of {_SPLIT_NAMES[s]}"
+                subsampled.setdefault(key, (name, []))[1].append(where)
+        paper = paper_table1(mine[0]) or (None, None, None)
+        secs = mine[0]["train_seconds"]
+        per_shape = np.mean([r["seconds_per_shape"] for r in mine if "seconds_per_shape" in r] or [np.nan])
+        lines.append(
+            f"| {name} | "
+            + " | ".join(cells)
+            + " | "
+            + " | ".join("–" if p is None else f"{p:g}" for p in paper)
+            + f" | {'–' if secs is None else f'{secs:.0f}'} | {_fmt(per_shape, digits=2)} |"
+        )
+    lines += [
+        "",
+        "s/shape: the method's wall time per reconstructed shape (decoding, search or optimisation; not training).",
+    ]
+    for name, where in subsampled.values():
+        lines.append(
+            f"{name}: evaluated on {', '.join(where)} (evenly spaced, to bound the optimisation's time; "
+            "`Budget.refine_shapes`)."
+        )
+    lines += ["", "## Targets", ""] + targets(t1)
+    table = ablation_table(rows)
+    if np.isfinite(table).any():
+        cols = list(PAPER_ABLATION_SETS)
+        lines += [
+            "",
+            "## Ablation (Appendix B): d_R ×10⁻⁴ on `test`",
+            "",
+            f"Each network trained {b['ablation_epochs']} epochs (Table 1's have {b['epochs']}).",
+            "",
+            "| encoder | " + " | ".join(cols) + " |",
+            "|---" * (len(cols) + 1) + "|",
+        ]
+        for i, d in enumerate(PAPER_ABLATION_DEPTHS):
+            best = np.nanargmin(table[i]) if np.isfinite(table[i]).any() else -1
+            cells = [f"**{_fmt(v)}**" if j == best else _fmt(v) for j, v in enumerate(table[i])]
+            lines.append(f"| {_encoder(d)} | " + " | ".join(cells) + " |")
+        lines += [
+            "",
+            "The paper's (DFAUST):",
+            "",
+            "| encoder | " + " | ".join(cols) + " |",
+            "|---" * (len(cols) + 1) + "|",
+        ]
+        for d, vals in PAPER_ABLATION.items():
+            lines.append(f"| {_encoder(d)} | " + " | ".join(f"{v:g}" for v in vals) + " |")
+        done = table[:, -1]
+        nn = (_find(t1, "test", **_NN) or {}).get("d_R")
+        if nn is not None and np.nanmin(table) > 0.5e4 * nn:
+            lines += [
+                "",
+                f"**Caveat:** with {b['ablation_epochs']} epochs at this preset the ablation networks are barely "
+                f"trained (every cell is above half of NN's {_fmt(nn, 1e4)}), so the differences between cells are "
+                "mostly noise: this table shows the pipeline, not the paper's trends. Use a larger preset.",
+            ]
+        if np.isfinite(table).all():
+            best_col = np.mean(np.argmin(table, axis=1) == len(cols) - 1)
+            lines += [
+                "",
+                f"All three operators give the best column in {best_col:.0%} of the depths (the paper: 100 %); "
+                f"depth 1 is {'the best' if np.argmin(done) == 0 else 'not the best'} for A+E+C "
+                f"({', '.join(_fmt(v) for v in done)} for depths 1–4).",
+            ]
+    lines += discretisation_markdown(rows)
+    lines += applications_markdown(rows)
+    return "\n".join(lines) + "\n"
+
+
+def discretisation_markdown(rows: list[dict]) -> list[str]:
+    """The different-discretisation section of ``results.md`` (lines): d_R per encoding and network, and the target."""
+    disc = [r for r in rows if r.get("table") == "discretisation"]
+    if not disc:
+        return []
+    nets = list(dict.fromkeys(row_key(r) for r in disc))
+    names = {key: next(r["method"] for r in disc if row_key(r) == key) for key in nets}
+    encodings = list(dict.fromkeys((r["resolution"], r["maps"]) for r in disc))
+    get = {(r["resolution"], r["maps"], row_key(r)): r for r in disc}
+    lines = [
+        "",
+        "## Other triangulations: test shapes on 2k and 5k meshes",
+        "",
+        f"{disc[0]['n_shapes']} `test` shapes (evenly spaced) generated on each mesh, mapped onto the 1k base "
+        "by the generator's true correspondence or by a computed map (`opnet.matching.compute_map`), encoded "
+        "through the map and decoded by each network; d_R ×10⁻⁴ against the 1k shapes (median in brackets). "
+        "Map error: mean distance between where the computed and the true map send a vertex. *1k exact*: the "
+        "same shapes' own operators.",
+        "",
+        "| mesh | map | map error (cm) | " + " | ".join(names[n] for n in nets) + " |",
+        "|---" * (3 + len(nets)) + "|",
+    ]
+    for res, maps in encodings:
+        first = get[res, maps, nets[0]]
+        cells = [
+            f"{_fmt(get[res, maps, n]['d_R'], 1e4)} ({_fmt(get[res, maps, n]['d_R_median'], 1e4)})"
+            if (res, maps, n) in get
+            else "–"
+            for n in nets
+        ]
+        error = "–" if maps == "exact" else f"{100 * first['map_error']:.2f}"
+        lines.append(f"| {res} | {maps} | {error} | " + " | ".join(cells) + " |")
+    exact = _find([r for r in disc if (r["resolution"], r["maps"]) == ("1k", "exact")], **_PAPER)
+    fine = [get[key] for key in get if key[:2] == ("5k", "computed")]
+    if exact is not None and fine:
+        lines += [
+            "",
+            f"**Target:** 5k → 1k through computed maps within 3× of OperatorNet (Int+Ext)'s error on the "
+            f"exact 1k operators of the same shapes ({_fmt(exact['d_R'], 1e4)}), for each network:",
+            "",
+        ]
+        lines += [
+            f"- {r['method']}: {_fmt(r['d_R'], 1e4)}, {r['d_R'] / exact['d_R']:.1f}×: "
+            f"{'met' if r['d_R'] <= 3 * exact['d_R'] else 'missed'}."
+            for r in fine
+        ]
+    return lines
+
+
+def applications_markdown(rows: list[dict]) -> list[str]:
+    """The applications' section of ``results.md`` (lines): the analogy and interpolation tables and their targets."""
+    ana = [r for r in rows if r.get("table") == "analogy"]
+    itp = [r for r in rows if r.get("table") == "interpolation"]
+    if not ana and not itp:
+        return []
+    lines = [
+        "",
+        "## Applications: analogy and interpolation against ground truth",
+        "",
+        "Subjects from `test_subjects`, poses from the `test` sequences; the true shapes are generated from the "
+        "generator's parameters (`opnet.apps`). d_R ×10⁻⁴ (median in brackets). *direct*: the same method on "
+        "X given X itself (its floor: the rest is the algebra's error).",
+    ]
+    for kind in dict.fromkeys(r["kind"] for r in ana):
+        part = [r for r in ana if r["kind"] == kind]
+        lines += [
+            "",
+            f"**Analogy, {_KIND_NAMES['analogy'].get(kind, kind)}** ({part[0]['n']} questions)",
+            "",
+            "| method | n | d_R | d_V | d_E | direct d_R |",
+            "|---|---|---|---|---|---|",
+        ]
+        for r in part:
+            before = f" (before: {_fmt(r['d_R_before'], 1e4)})" if "d_R_before" in r else ""
+            lines.append(
+                f"| {r['method']} | {r['n']} | {_fmt(r['d_R'], 1e4)} ({_fmt(r['d_R_median'], 1e4)}){before} | "
+                f"{_fmt(r['d_V'])} | {_fmt(r['d_E'])} | {_fmt(r['d_R_direct'], 1e4)} |"
+            )
+    for kind in dict.fromkeys(r["kind"] for r in itp):
+        part = [r for r in itp if r["kind"] == kind]
+        lines += [
+            "",
+            f"**Interpolation, {_KIND_NAMES['interpolation'].get(kind, kind)}** ({part[0]['n_paths']} paths of "
+            f"{part[0]['steps']} steps)",
+            "",
+            "| method | paths | endpoints d_R | in-between d_R | edge distortion | smoothness (worst) |",
+            "|---|---|---|---|---|---|",
+        ]
+        for r in part:
+            lines.append(
+                f"| {r['method']} | {r['n_paths']} | {_fmt(r['endpoint_d_R'], 1e4)} | {_fmt(r['d_R_truth'], 1e4)} | "
+                f"{_fmt(r['distortion'])} | {_fmt(r['smoothness'])} ({_fmt(r['smoothness_max'])}) |"
+            )
+    if itp:
+        lines += [
+            "",
+            f"Edge distortion: the largest mean relative edge-length error against the nearer true endpoint; "
+            f"smoothness: the largest step over the path length ({1 / (itp[0]['steps'] - 1):.2f} for even steps).",
+        ]
+    verdicts = []
+    for kind in dict.fromkeys(r["kind"] for r in ana):
+        part = [r for r in ana if r["kind"] == kind]
+        ours = (_find(part, **_PAPER, scheme="multiplicative") or {}).get("d_R")
+        others = [_find(part, architecture="pointnet", refined=None), _find(part, baseline="nearest_neighbour")]
+        others = {r["method"]: r["d_R"] for r in others if r is not None}
+        if ours is not None and others:
+            met = all(v > ours for v in others.values())
+            ratios = ", ".join(f"{m} / OperatorNet = {v / ours:.2f}" for m, v in others.items())
+            verdicts.append(
+                f"- analogy, {kind}: {ratios} (target: OperatorNet (mult.) beats both at `default`): "
+                f"{'met' if met else 'missed'}."
+            )
+    return lines + (["", "**Targets**", ""] + verdicts if verdicts else [])
+
+
+def targets(t1: list[dict]) -> list[str]:
+    """The verdicts on Table 1's targets (lines of ``results.md``) from its rows ``t1``: NN against OperatorNet per
+    test set, d_V and d_E, the paper's network against ours, what refinement changes, the "Comp" networks against the
+    ground-truth maps, and the paper's ordering Int+Ext < Ext < Int.
+    """
+
+    def get(fields, split, key="d_R"):
+        r = _find(t1, split, **fields)
+        return None if r is None else r.get(key)
+
+    lines = []
+    for split in ("test", "test_subjects", "eval_subset"):
+        ours, nn = get(_PAPER, split), get(_NN, split)
+        if ours is not None and nn is not None:
+            ratio = nn / ours
+            lines.append(
+                f"- {_SPLIT_NAMES[split]}: NN's d_R / OperatorNet (Int+Ext)'s = {ratio:.1f} "
+                f"({_fmt(nn, 1e4)} vs {_fmt(ours, 1e4)} ×10⁻⁴; target ≥ 10 at `default`, the paper 23): "
+                f"{'met' if ratio >= 10 else 'missed'}."
+            )
+    dv, de = get(_PAPER, "test", "d_V"), get(_PAPER, "test", "d_E")
+    if dv is not None:
+        lines.append(
+            f"- test: d_V {_fmt(dv)} (target ≤ 0.014: {'met' if dv <= 0.014 else 'missed'}), "
+            f"d_E {_fmt(de)} (target ≤ 0.045: {'met' if de <= 0.045 else 'missed'})."
+        )
+    paper, ours = get(_PAPER, "test"), get(_OURS, "test")
+    if paper is not None and ours is not None:
+        lines.append(
+            f"- test: OperatorNet (Int+Ext)'s d_R / ours = {paper / ours:.2f} ({_fmt(paper, 1e4)} vs "
+            f"{_fmt(ours, 1e4)} ×10⁻⁴; target ≥ 1.5 at `default`): {'met' if paper / ours >= 1.5 else 'missed'}."
+        )
+    for fields in (_PAPER, _OURS):
+        net = _find(t1, **fields)
+        refined = None if net is None else dict(run=net.get("run"), refined=True)
+        if refined is None:
+            continue
+        after, before = get(refined, "test"), get(refined, "test", "d_R_before")
+        if after is not None and before is not None:
+            lines.append(
+                f"- test: refinement changes {net['method']}'s d_R by {100 * (after / before - 1):+.0f} % "
+                f"({_fmt(before, 1e4)} → {_fmt(after, 1e4)} ×10⁻⁴ on the same shapes)."
+            )
+    truth = get(_PAPER, "test")
+    reference = PAPER_TABLE1["OperatorNet (Int+Ext)"][0]
+    for comp_row in (r for r in t1 if r["split"] == "test" and matches(r, group="comp", refined=None)):
+        channels = row_channels(comp_row)
+        comp, same = comp_row.get("d_R"), get(_network(channels), "test")
+        if comp is not None and truth is not None:
+            published = paper_table1(comp_row)
+            paper = "–" if published is None else f"{published[0] / reference:.1f}"
+            alike = f"; {comp / same:.1f}× OperatorNet ({channel_label(channels)})'s" if same is not None else ""
+            lines.append(
+                f"- test: {comp_row['method']}'s d_R / OperatorNet (Int+Ext)'s (ground-truth maps) = "
+                f"{comp / truth:.1f} ({_fmt(comp, 1e4)} vs {_fmt(truth, 1e4)} ×10⁻⁴; target ≤ 5 at `default`, the "
+                f"paper {paper}{alike}): {'met' if comp / truth <= 5 else 'missed'}."
+            )
+    order = [get(_network(c), "test") for c in (KINDS, ("extrinsic",), ("area", "conformal"))]
+    if None not in order:
+        holds = order[0] < order[1] < order[2]
+        lines.append(
+            f"- ordering Int+Ext < Ext < Int on test (the paper's): {'holds' if holds else 'does not hold'} "
+            f"({' / '.join(_fmt(v, 1e4) for v in order)})."
+        )
+    return lines

@@ -1,0 +1,138 @@
+"""Declared runs: :class:`RunSpec`, one network to train (what it reads, its architecture, its budget), and the
+run directory it lives in.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..evaluate import channel_label, channel_names
+from ..inner_products import INNER_PRODUCTS, channel_digest, get_inner_product, known_inner_products
+from ..shape_difference import CHANNEL_SETS, KINDS
+
+__all__ = ["RunSpec", "VARIANTS", "ARCHITECTURES"]
+
+#: The network variants a spec may ask for (:data:`opnet.model.VARIANTS`).
+VARIANTS = ("paper", "ours")
+#: What a spec may train: OperatorNet (reads operators) or the PointNet autoencoder (reads coordinates).
+ARCHITECTURES = ("operatornet", "pointnet")
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One network to train, as data: the arguments of :func:`opnet.train.fit` that define it.
+
+    Parameters
+    ----------
+    channels : the operators it reads (names, inner products of your own, or a short name such as ``"A+E"``);
+        ``()`` for ``architecture="pointnet"``.
+    depth : OperatorNet's encoder depth (1–4).
+    variant : ``"paper"`` or ``"ours"`` (:data:`opnet.model.VARIANTS`).
+    architecture : ``"operatornet"`` or ``"pointnet"``.
+    epochs, batch_size, lr, hidden, seed : the budget and the seed (:func:`opnet.train.fit`).
+    group : the prefix of its run directory (``"table1"``, ``"ablation"``, ...).
+    name : its display name in tables (default ``"OperatorNet (<channels>)"``, with the depth when not 1).
+    options : other options of :func:`opnet.train.fit` (e.g. ``{"standardize": True}``).
+    """
+
+    channels: tuple = KINDS
+    depth: int = 1
+    variant: str = "paper"
+    architecture: str = "operatornet"
+    epochs: int = 50
+    batch_size: int = 32
+    lr: float = 1e-3
+    hidden: int = 1024
+    seed: int = 0
+    group: str = "run"
+    name: str | None = None
+    options: dict = field(default_factory=dict, hash=False)
+
+    def __post_init__(self):
+        if self.architecture not in ARCHITECTURES:
+            raise ValueError(f"architecture must be one of {ARCHITECTURES}, got {self.architecture!r}.")
+        if self.variant not in VARIANTS:
+            raise ValueError(f"variant must be one of {VARIANTS}, got {self.variant!r}.")
+        channels = self.channels
+        if isinstance(channels, str):
+            channels = CHANNEL_SETS.get(channels) or tuple(c.strip() for c in channels.split(","))
+        elif not isinstance(channels, (list, tuple)):
+            channels = (channels,)
+        # names stay names (a collection resolves them); classes and "module:Class" become inner products
+        channels = tuple(c if isinstance(c, str) and ":" not in c else get_inner_product(c) for c in channels)
+        if self.architecture == "pointnet" and channels not in ((), KINDS):
+            raise ValueError("a pointnet run reads coordinates, not operators: leave channels=().")
+        if self.architecture == "operatornet" and not channels:
+            raise ValueError("an operatornet run needs channels (e.g. ('area', 'extrinsic')).")
+        object.__setattr__(self, "channels", () if self.architecture == "pointnet" else channels)
+        if not re.fullmatch(r"[A-Za-z0-9_.+-]+", self.group):
+            raise ValueError(f"group must be a folder-name prefix (letters, digits, _ . + -), got {self.group!r}.")
+
+    @property
+    def channel_names(self) -> tuple[str, ...]:
+        """The names of :attr:`channels`, in order."""
+        return channel_names(self.channels)
+
+    @property
+    def label(self) -> str:
+        """The display name (:attr:`name` when given): for tables and figures, never parsed."""
+        if self.name is not None:
+            return self.name
+        if self.architecture == "pointnet":
+            return "PointNet AE"
+        ours = " ours" if self.variant == "ours" else ""
+        depth = f" depth {self.depth}" if self.depth != 1 else ""
+        return f"OperatorNet{ours} ({channel_label(self.channels)}){depth}"
+
+    @property
+    def run_name(self) -> str:
+        """The run directory's name: ``<group>-<channels>-d<depth>[-<variant>]`` (``<group>-pointnet``).
+
+        A set of built-in channels goes by its short name (``A+E+C``, ``Ext``: the folders reproduce always used);
+        a set with channels of your own by their names and a digest of their implementations, so that editing a
+        class trains a new run instead of resuming one of the old code. A seed other than 0 and extra options add
+        ``-s<seed>`` and a digest of the options.
+        """
+        if self.architecture == "pointnet":
+            stem = f"{self.group}-pointnet"
+        else:
+            names = self.channel_names
+            short = next((k for k, v in CHANNEL_SETS.items() if set(v) == set(names)), None)
+            if short is None:
+                own = [c for c in self.channels if not (isinstance(c, str) and c in INNER_PRODUCTS)]
+                known = known_inner_products()  # a name of one's own that is not registered: by its name alone
+                codes = [c if isinstance(c, str) and c not in known else channel_digest(c) for c in own]
+                digest = hashlib.sha256("".join(codes).encode()).hexdigest()[:8]
+                short = "+".join(re.sub(r"[^A-Za-z0-9_-]+", "_", n) for n in names) + f"-{digest}"
+            stem = f"{self.group}-{short}-d{self.depth}" + ("" if self.variant == "paper" else f"-{self.variant}")
+        if self.seed != 0:
+            stem += f"-s{self.seed}"
+        if self.options:
+            stem += "-" + hashlib.sha256(repr(sorted(self.options.items())).encode()).hexdigest()[:8]
+        return stem
+
+    def run_dir(self, root) -> Path | None:
+        """``root / run_name`` (``None`` when ``root`` is ``None``: trained in memory, nothing written)."""
+        return None if root is None else Path(root) / self.run_name
+
+    def fit_options(self) -> dict:
+        """The keyword arguments of :func:`opnet.train.fit` this spec stands for (without the collection)."""
+        common = dict(epochs=self.epochs, batch_size=self.batch_size, lr=self.lr, hidden=self.hidden, seed=self.seed)
+        if self.architecture == "pointnet":
+            return dict(common, architecture="pointnet", **self.options)
+        return dict(common, channels=list(self.channels), depth=self.depth, variant=self.variant, **self.options)
+
+    def fields(self) -> dict:
+        """The structured fields every row of this run carries: ``run``, ``architecture``, ``variant``, ``channels``
+        (names), ``depth``.
+        """
+        return dict(
+            run=self.run_name,
+            architecture=self.architecture,
+            variant=self.variant,
+            channels=list(self.channel_names),
+            depth=self.depth if self.architecture == "operatornet" else None,
+        )

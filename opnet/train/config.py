@@ -1,0 +1,298 @@
+"""The hyper-parameters of a training run: :class:`TrainConfig`, its checks, and the ``python -m opnet train``
+options generated from its fields.
+
+Each field of :class:`TrainConfig` is an argument of :func:`opnet.train.fit` (same name, same default). Its
+metadata says how the command line exposes it: the flag (default ``--`` and the name with dashes), the ``type``
+argparse converts the text with, the ``choices`` and the ``help`` text; a field marked ``cli=False`` has no flag.
+A ``bool`` field whose default is ``True`` becomes a ``--no-...`` flag that turns it off.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from dataclasses import dataclass, field
+
+import torch
+
+from .._checks import check_int, check_number
+from ..inner_products import get_inner_product
+from ..model import ARCHITECTURES, VARIANTS
+from ..shape_difference import CHANNEL_SETS, KINDS
+
+__all__ = [
+    "TrainConfig",
+    "add_arguments",
+    "config_from_args",
+    "parse_channels",
+    "resolve_device",
+    "positive_int",
+    "SCHEDULES",
+    "DEPTHS",
+]
+
+#: The learning-rate schedules of :func:`opnet.train.fit`: the paper's constant rate, or one cycle (our variant's).
+SCHEDULES = ("constant", "onecycle")
+#: The encoder depths of OperatorNet (the paper's ablation).
+DEPTHS = (1, 2, 3, 4)
+_VARIANT_SCHEDULE = {"paper": "constant", "ours": "onecycle"}
+#: The number of vertices the PointNet encoder reads when ``n_points`` is not given.
+DEFAULT_POINTS = 256
+
+
+def positive_int(text: str) -> int:
+    """``text`` as an integer >= 1, for argparse (an ``ArgumentTypeError`` otherwise)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def parse_channels(channels, collection=None) -> tuple[str, ...]:
+    """``"area,extrinsic"``, ``"A+E"`` (:data:`opnet.CHANNEL_SETS`), ``"module:Class"`` or a sequence of channels.
+
+    Parameters
+    ----------
+    channels : str or sequence
+        Channel names, inner products, a comma-separated list of them or a short name of
+        :data:`opnet.CHANNEL_SETS`.
+    collection : opnet.data.Collection, optional
+        With it, a name it holds needs no registration and an instance must match what it recorded
+        (:meth:`~opnet.data.storage.Collection.channel_names`).
+
+    Returns
+    -------
+    tuple of str
+        The channel names, in the order given.
+    """
+    if collection is not None:
+        return collection.channel_names(channels)
+    if isinstance(channels, str):
+        channels = CHANNEL_SETS[channels] if channels in CHANNEL_SETS else [c.strip() for c in channels.split(",")]
+    channels = tuple(get_inner_product(c).name for c in channels)
+    if not channels or len(set(channels)) != len(channels):
+        raise ValueError(
+            f"channels must be one or more channels without repeats (e.g. {KINDS}, or one of "
+            f"{list(CHANNEL_SETS)}), got {channels!r}."
+        )
+    return channels
+
+
+def resolve_device(device="auto") -> torch.device:
+    """``"auto"`` → CUDA when available, else the CPU; anything else is passed to :class:`torch.device`."""
+    if device == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    try:
+        device = torch.device(device)
+    except (RuntimeError, TypeError):
+        raise ValueError(f"device must be 'auto', 'cpu', 'cuda' or 'cuda:N', got {device!r}.") from None
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise ValueError("device='cuda' was asked for but torch sees no CUDA GPU; use device='auto' or 'cpu'.")
+    return device
+
+
+def _option(default, help: str, *, flag: str | None = None, type=None, choices=None, cli: bool = True):
+    """A field of :class:`TrainConfig` with its command-line option described in its metadata."""
+    return field(default=default, metadata=dict(help=help, flag=flag, type=type, choices=choices, cli=cli))
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """The hyper-parameters of :func:`opnet.train.fit` (the network, the optimisation, the device), checked.
+
+    Every field is the argument of :func:`~opnet.train.fit` of the same name, with the same default and meaning
+    (see there). Building one runs the checks :func:`~opnet.train.fit` runs on them (a ``ValueError`` with the same
+    message); the channels are checked against the collection later (:meth:`channel_names`).
+
+    Attributes
+    ----------
+    channels : channels or str, optional
+        Input operators (default all of the collection's).
+    depth : int
+        Encoder depth, 1 to 4.
+    epochs, batch_size : int
+        Passes over the training split; shapes per optimiser step (global under ``torchrun``).
+    lr : float
+        Adam's (peak) learning rate.
+    seed : int
+        Initialisation and shuffling.
+    hidden : int
+        Width of the hidden dense layers.
+    subtract_identity : bool
+        The network sees ``D − I``.
+    variant : str
+        ``"paper"`` or ``"ours"`` (:data:`opnet.model.VARIANTS`).
+    schedule : str, optional
+        ``"constant"`` or ``"onecycle"`` (default: the variant's, :attr:`lr_schedule`).
+    standardize, residual : bool, optional
+        Override the variant's network options.
+    architecture : str
+        ``"operatornet"`` or ``"pointnet"``.
+    n_points : int, optional
+        Vertices the PointNet encoder reads (default 256, :attr:`points`).
+    device : str
+        ``"auto"``, ``"cpu"``, ``"cuda"``, ``"cuda:N"``.
+    """
+
+    channels: object = _option(
+        None,
+        "input operators, comma-separated: built-in (area, conformal, extrinsic), registered, or your own "
+        "inner product as package.module:Class (imported, and added to the collection, cached beside it); or a "
+        "short name (A+E+C, Area, Ext, Conf, A+E, A+C, E+C); default all of the collection's (OperatorNet only)",
+    )
+    depth: int = _option(1, "convolution layers in OperatorNet's encoder (1)", type=int, choices=DEPTHS)
+    epochs: int = _option(50, "passes over the training split (50); more continues a run", type=positive_int)
+    batch_size: int = _option(32, "shapes per step, global across processes (32)", type=positive_int)
+    lr: float = _option(1e-3, "Adam learning rate (1e-3)", type=float)
+    seed: int = _option(0, "initialisation and shuffling seed (0)", type=int)
+    hidden: int = _option(1024, "width of the two hidden dense layers (1024)", type=positive_int)
+    subtract_identity: bool = _option(True, "feed the network D instead of D - I (the default subtracts the identity)")
+    variant: str = _option(
+        "paper",
+        "paper: the paper's network; ours: standardised inputs, a displacement from the base and a "
+        "one-cycle learning rate (README, 'our variant')",
+        choices=tuple(VARIANTS),
+    )
+    schedule: str | None = _option(
+        None, "learning rate over the run (default: constant for paper, onecycle for ours)", choices=SCHEDULES
+    )
+    standardize: bool | None = _option(None, "override the variant's input standardisation", cli=False)
+    residual: bool | None = _option(None, "override the variant's displacement from the base", cli=False)
+    architecture: str = _option(
+        "operatornet",
+        "operatornet (default), or pointnet: the PointNet autoencoder baseline, which reads the "
+        "coordinates (same decoder, loss and checkpoints; --channels/--variant do not apply)",
+        choices=tuple(ARCHITECTURES),
+    )
+    n_points: int | None = _option(
+        None, "pointnet: vertices the encoder reads (256)", flag="--points", type=positive_int
+    )
+    device: str = _option("auto", "auto (CUDA if present), cpu, cuda, cuda:N")
+
+    def __post_init__(self):
+        """Refuse bad values with the messages of :func:`opnet.train.fit`, in the order it checks them."""
+        if self.architecture not in ARCHITECTURES:
+            raise ValueError(f"architecture must be one of {list(ARCHITECTURES)}, got {self.architecture!r}.")
+        if self.pointnet and (
+            self.channels is not None
+            or self.variant != "paper"
+            or self.standardize is not None
+            or self.residual is not None
+            or self.depth != 1
+            or self.subtract_identity is not True
+        ):
+            raise ValueError(
+                "architecture='pointnet' reads coordinates, not operators: channels, depth, variant, "
+                "subtract_identity, standardize and residual are OperatorNet's options; leave them unset."
+            )
+        if not self.pointnet and self.n_points is not None:
+            raise ValueError(
+                "n_points is the PointNet autoencoder's option (architecture='pointnet'); OperatorNet reads "
+                "operators, not points: leave it unset."
+            )
+        if self.variant not in VARIANTS:
+            raise ValueError(f"variant must be one of {list(VARIANTS)}, got {self.variant!r}.")
+        if self.lr_schedule not in SCHEDULES:
+            raise ValueError(f"schedule must be one of {SCHEDULES}, got {self.schedule!r}.")
+        for name in ("epochs", "batch_size", "hidden"):
+            check_int(name, getattr(self, name))
+        check_int("n_points", self.points)
+        check_number("lr", self.lr)
+        resolve_device(self.device)
+        if self.depth not in DEPTHS:  # OperatorNet's own check, made before any data is read
+            raise ValueError(
+                f"depth must be 1, 2, 3 or 4 convolution layers (the paper's ablation), got {self.depth!r}."
+            )
+
+    @property
+    def pointnet(self) -> bool:
+        """Whether the network reads the shapes' coordinates (the PointNet autoencoder) rather than operators."""
+        return ARCHITECTURES[self.architecture][1] == "vertices"
+
+    @property
+    def lr_schedule(self) -> str:
+        """:attr:`schedule`, or the variant's when it is ``None`` (``"constant"`` for paper, ``"onecycle"`` ours)."""
+        return _VARIANT_SCHEDULE[self.variant] if self.schedule is None else self.schedule
+
+    @property
+    def points(self) -> int:
+        """:attr:`n_points`, or 256 when it is ``None``."""
+        return DEFAULT_POINTS if self.n_points is None else self.n_points
+
+    def channel_names(self, collection) -> tuple[str, ...]:
+        """The names of the channels the network reads from ``collection`` (``()`` for the PointNet autoencoder).
+
+        Parameters
+        ----------
+        collection : opnet.data.Collection
+            The collection trained on; :attr:`channels` ``None`` means all of its channels.
+
+        Returns
+        -------
+        tuple of str
+            In the order asked (:meth:`~opnet.data.storage.Collection.channel_names`, which refuses a channel it
+            does not hold).
+        """
+        if self.pointnet:
+            return ()
+        return collection.channel_names(collection.kinds if self.channels is None else self.channels)
+
+    def as_kwargs(self) -> dict:
+        """The fields as keyword arguments of :func:`opnet.train.fit` (values as they are, not copied)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+def _cli_fields():
+    return [f for f in dataclasses.fields(TrainConfig) if f.metadata["cli"]]
+
+
+def _flag(f: dataclasses.Field) -> str:
+    if f.metadata["flag"]:
+        return f.metadata["flag"]
+    name = f.name.replace("_", "-")
+    return f"--no-{name}" if f.default is True else f"--{name}"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add an option to ``parser`` for each field of :class:`TrainConfig` that has one (``cli`` in its metadata).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The ``train`` sub-command's parser. Each option stores into the field's name, with the field's default;
+        a ``bool`` field whose default is ``True`` becomes ``--no-<name>`` (``store_false``).
+    """
+    for f in _cli_fields():
+        meta = f.metadata
+        if f.default is True:
+            parser.add_argument(_flag(f), dest=f.name, action="store_false", help=meta["help"])
+            continue
+        options = dict(dest=f.name, default=f.default, help=meta["help"])
+        if meta["flag"] and meta["choices"] is None:  # shown as the flag says, not as the field's name
+            options["metavar"] = meta["flag"].lstrip("-").replace("-", "_").upper()
+        if meta["type"] is not None:
+            options["type"] = meta["type"]
+        if meta["choices"] is not None:
+            options["choices"] = list(meta["choices"])
+        parser.add_argument(_flag(f), **options)
+
+
+def config_from_args(args: argparse.Namespace, **overrides) -> TrainConfig:
+    """The :class:`TrainConfig` of a namespace parsed by a parser given :func:`add_arguments`.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Holds one attribute per exposed field (other attributes are ignored).
+    **overrides
+        Fields to set otherwise (e.g. ``channels`` resolved against the collection, or those without a flag).
+
+    Returns
+    -------
+    TrainConfig
+        Checked as any other (a ``ValueError`` with :func:`opnet.train.fit`'s message for a bad value).
+    """
+    return TrainConfig(**{**{f.name: getattr(args, f.name) for f in _cli_fields()}, **overrides})

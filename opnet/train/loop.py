@@ -1,0 +1,203 @@
+"""The epoch loop of :func:`opnet.train.fit`: shuffled batches, Adam steps on eq. 9, validation, DDP, NaN stop.
+
+Under ``torchrun --nproc_per_node N`` (the process group initialised by ``python -m opnet train``), the
+model is wrapped in :class:`~torch.nn.parallel.DistributedDataParallel`: every global batch of
+``batch_size`` shapes is split across the N processes (``_shard``), and the loss is weighted so that the
+gradient is that of the whole global batch; the result equals a single-process run with the same ``batch_size`` up
+to floating-point summation order. Only rank 0 writes the run directory.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from typing import NamedTuple
+
+import numpy as np
+import torch
+
+from ..model import rigid_alignment_loss
+from .config import resolve_device
+from .rundir import RunState
+
+__all__ = ["TrainingError", "Placement", "placement", "run_epochs"]
+
+
+class TrainingError(RuntimeError):
+    """Training cannot go on (for example the loss became NaN); the message names the last good checkpoint."""
+
+
+def _distributed() -> tuple[int, int]:
+    if torch.distributed.is_available() and torch.distributed.is_initialized():
+        return torch.distributed.get_rank(), torch.distributed.get_world_size()
+    return 0, 1
+
+
+class Placement(NamedTuple):
+    """Where a process trains: its device, its DDP rank and the number of processes (0 and 1 without DDP)."""
+
+    device: torch.device
+    rank: int
+    world: int
+
+
+def placement(device) -> Placement:
+    """Where this process trains.
+
+    Parameters
+    ----------
+    device : str or torch.device
+        As :func:`~opnet.train.resolve_device` reads it; under DDP on CUDA, this process's GPU is ``LOCAL_RANK``'s.
+
+    Returns
+    -------
+    Placement
+        The device, this process's rank and the number of processes of the initialised process group.
+    """
+    device = resolve_device(device)
+    rank, world = _distributed()
+    if device.type == "cuda" and world > 1:
+        device = torch.device("cuda", int(os.environ.get("LOCAL_RANK", 0)))
+    return Placement(device, rank, world)
+
+
+def _shard(batch: np.ndarray, rank: int, world: int) -> tuple[np.ndarray, np.ndarray]:
+    """The part of a global batch that this rank computes, and the weights of its shapes.
+
+    A rank left without a shape gets one with weight 0, so that every process runs forward and backward as DDP
+    requires.
+    """
+    part = np.array_split(batch, world)[rank]
+    if len(part) == 0:
+        return batch[:1], np.zeros(1)
+    return part, np.ones(len(part))
+
+
+@torch.no_grad()
+def _val_d_R(net, inputs, vertices, batch_size=256, loss=rigid_alignment_loss) -> float:
+    net.eval()
+    total = 0.0
+    for s in range(0, len(inputs), batch_size):
+        pred = net(inputs[s : s + batch_size]).double()
+        total += loss(pred, vertices[s : s + batch_size].double(), reduction="none").sum().item()
+    net.train()
+    return total / len(inputs)
+
+
+def _onecycle(step: int, total: int, lr: float) -> float:
+    """The learning rate at ``step`` of ``total`` under ``schedule="onecycle"`` (see :func:`opnet.train.fit`)."""
+    warm = 0.05 * total
+
+    def cos(start, end, frac):
+        return end + (start - end) * 0.5 * (1 + math.cos(math.pi * frac))
+
+    if step < warm:
+        return cos(lr / 25, lr, step / warm)
+    return cos(lr, lr / 25 / 1e4, (step - warm) / max(total - warm, 1))
+
+
+def _diverged(epoch, what, history, start, run_dir, lr):
+    good = (
+        f"{run_dir / 'latest.pt'} (epoch {history[-1]['epoch'] if history else start})"
+        if run_dir is not None and (history or start)
+        else "none"
+    )
+    raise TrainingError(
+        f"{what} became NaN or infinite in epoch {epoch}; the last good checkpoint is {good}. Lower "
+        f"lr (now {lr}), or check the collection for NaN or extreme operators."
+    )
+
+
+def run_epochs(
+    net, optimizer, data, state: RunState, config, place: Placement, *, run=None, bar, loss=rigid_alignment_loss
+) -> None:
+    """Train ``net`` from epoch ``state.start + 1`` to ``config.epochs``, updating ``state`` after each epoch.
+
+    Epoch ``e`` visits the training shapes in the order ``numpy.random.default_rng([seed, e]).permutation(n)``,
+    in global batches of ``config.batch_size``; a non-finite output, loss or validation ``d_R`` stops the run
+    before the step (:class:`TrainingError`).
+
+    Parameters
+    ----------
+    net : torch.nn.Module
+        The network, on ``place.device`` (wrapped in DDP here when ``place.world > 1``).
+    optimizer : torch.optim.Adam
+        Its optimiser (its learning rate set at each step under ``schedule="onecycle"``).
+    data : opnet.train.network.TrainData
+        The network inputs and target vertices of the train and val splits, on ``place.device``.
+    state : RunState
+        The run so far (resumed or fresh); its history, best epoch and, without ``run``, best weights are updated.
+    config : opnet.train.TrainConfig
+        ``epochs``, ``batch_size``, ``lr``, ``seed`` and the schedule.
+    place : Placement
+        The device the network and ``data`` are on, this process's DDP rank and the number of processes.
+    run : opnet.train.rundir.RunDir, optional
+        Written after each epoch (by rank 0); ``None``: the best weights are kept in ``state.best_weights``.
+    bar : tqdm.tqdm
+        The progress bar over epochs (updated here, closed by the caller).
+    loss : callable
+        ``loss(pred, target, reduction="none")``, per shape (eq. 9, :func:`opnet.model.rigid_alignment_loss`).
+
+    Raises
+    ------
+    TrainingError
+        The network's output, the loss or the validation ``d_R`` became NaN or infinite.
+    """
+    epochs, batch_size, seed = config.epochs, config.batch_size, config.seed
+    lr, schedule = config.lr, config.lr_schedule
+    device, rank, world = place
+    run_dir = run.path if run is not None else None
+    history, start = state.history, state.start
+    model = net
+    if world > 1:
+        model = torch.nn.parallel.DistributedDataParallel(
+            net, device_ids=[device.index] if device.type == "cuda" else None
+        )
+    net.train()
+    n = len(data.train_in)
+    steps_per_epoch = -(-n // batch_size)
+    step, total_steps = start * steps_per_epoch, epochs * steps_per_epoch
+    for epoch in range(start + 1, epochs + 1):
+        t0 = time.perf_counter()
+        order = np.random.default_rng([seed, epoch]).permutation(n)
+        loss_sum = torch.zeros((), dtype=torch.float64, device=device)
+        for s in range(0, n, batch_size):
+            batch = order[s : s + batch_size]
+            part, weight = _shard(batch, rank, world)
+            pred = model(data.train_in[part])
+            finite = torch.isfinite(pred).all()
+            # a non-finite output is replaced by zeros for Kabsch; the step is refused below in any case
+            per_shape = loss(torch.where(finite, pred, torch.zeros_like(pred)), data.train_X[part], reduction="none")
+            weight = torch.as_tensor(weight, dtype=per_shape.dtype, device=device)
+            # DDP averages gradients over the `world` ranks: scale so that the sum is the global batch mean
+            batch_loss = (per_shape * weight).sum() * (world / len(batch))
+            ok = (finite & torch.isfinite(batch_loss)).to(torch.int32)
+            if world > 1:  # every rank stops together
+                torch.distributed.all_reduce(ok, op=torch.distributed.ReduceOp.MIN)
+            if not ok.item():  # before the step (earlier steps of this epoch are lost; the checkpoint is not)
+                _diverged(epoch, "the network's output or training loss", history, start, run_dir, lr)
+            if schedule == "onecycle":
+                for group in optimizer.param_groups:
+                    group["lr"] = _onecycle(step, total_steps, lr)
+            step += 1
+            optimizer.zero_grad(set_to_none=True)
+            batch_loss.backward()
+            optimizer.step()
+            loss_sum += (per_shape.detach() * weight).sum().double()
+        if world > 1:
+            torch.distributed.all_reduce(loss_sum)
+        train_loss = loss_sum.item() / n
+        val = _val_d_R(net, data.val_in, data.val_X, loss=loss)
+        if not (math.isfinite(val) and math.isfinite(train_loss)):  # e.g. the last step made the weights NaN
+            _diverged(epoch, f"the validation d_R ({val})", history, start, run_dir, lr)
+        history.append(dict(epoch=epoch, train_loss=train_loss, val_d_R=val, seconds=time.perf_counter() - t0))
+        improved = val < state.best_val
+        if improved:
+            state.best_val, state.best_epoch = val, epoch
+        if run is not None:
+            run.save_epoch(epoch, state, net, optimizer, val=val, improved=improved)
+        elif improved:
+            state.best_weights = {k: v.detach().clone() for k, v in net.state_dict().items()}
+        bar.update(1)
+        bar.set_postfix(loss=f"{train_loss:.3g}", val_dR=f"{val * 1e4:.3g}e-4", best=state.best_epoch)

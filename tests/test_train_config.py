@@ -1,0 +1,136 @@
+"""TrainConfig: fit's hyper-parameters as a checked dataclass, and the `python -m opnet train` options generated
+from its fields."""
+
+import dataclasses
+import inspect
+
+import pytest
+
+from opnet import train
+from opnet.__main__ import _parser, main
+from opnet.train import TrainConfig
+from opnet.train.config import config_from_args
+
+NOT_EXPOSED = {"standardize", "residual"}  # fit's options without a flag (benchmarks/variants.py sets them)
+FLAGS = {  # the train options of the command line, as they were written by hand before
+    "channels": "--channels",
+    "depth": "--depth",
+    "epochs": "--epochs",
+    "batch_size": "--batch-size",
+    "lr": "--lr",
+    "seed": "--seed",
+    "hidden": "--hidden",
+    "subtract_identity": "--no-subtract-identity",
+    "variant": "--variant",
+    "schedule": "--schedule",
+    "architecture": "--architecture",
+    "n_points": "--points",
+    "device": "--device",
+}
+OTHERS = {"--collection", "--preset", "--resolution", "--data-seed", "--run-dir", "--restart", "--data-root"}
+
+
+def _train_parser():
+    return _parser()._subparsers._group_actions[0].choices["train"]
+
+
+def _parse(*words):
+    return _parser().parse_args(["train", "--run-dir", "run", *words])
+
+
+@pytest.fixture(scope="module")
+def coll():
+    from test_train import tiny_collection
+
+    return tiny_collection()
+
+
+def test_every_field_but_the_unexposed_has_its_flag():
+    fields = {f.name for f in dataclasses.fields(TrainConfig)}
+    assert fields - NOT_EXPOSED == set(FLAGS)
+    actions = {a.dest: a for a in _train_parser()._actions if a.option_strings}
+    for name, flag in FLAGS.items():
+        assert actions[name].option_strings == [flag] and actions[name].help
+    assert not NOT_EXPOSED & set(actions)
+    assert {s for a in actions.values() for s in a.option_strings} == set(FLAGS.values()) | OTHERS | {"-h", "--help"}
+    assert actions["depth"].choices == [1, 2, 3, 4]
+    assert actions["variant"].choices == ["paper", "ours"] and actions["schedule"].choices == ["constant", "onecycle"]
+    assert actions["architecture"].choices == ["operatornet", "pointnet"]
+
+
+def test_fields_are_fits_arguments_with_its_defaults():
+    params = inspect.signature(train.fit).parameters
+    for f in dataclasses.fields(TrainConfig):
+        assert params[f.name].default == f.default, f.name
+
+
+def test_the_parsed_namespace_is_the_config_built_directly():
+    assert config_from_args(_parse()) == TrainConfig()
+    args = _parse(
+        *("--channels", "A+E", "--depth", "3", "--epochs", "7", "--batch-size", "5", "--lr", "0.01", "--seed", "4"),
+        *("--hidden", "16", "--no-subtract-identity", "--variant", "ours", "--schedule", "constant", "--device", "cpu"),
+    )
+    direct = TrainConfig(
+        channels="A+E",
+        depth=3,
+        epochs=7,
+        batch_size=5,
+        lr=0.01,
+        seed=4,
+        hidden=16,
+        subtract_identity=False,
+        variant="ours",
+        schedule="constant",
+        device="cpu",
+    )
+    assert config_from_args(args) == direct
+    assert config_from_args(_parse("--architecture", "pointnet", "--points", "64")) == TrainConfig(
+        architecture="pointnet", n_points=64
+    )
+    assert config_from_args(_parse(), standardize=True) == TrainConfig(standardize=True)
+    assert direct.as_kwargs()["channels"] == "A+E" and direct.lr_schedule == "constant"
+    assert TrainConfig(variant="ours").lr_schedule == "onecycle" and TrainConfig(architecture="pointnet").points == 256
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        direct.lr = 1.0
+
+
+@pytest.mark.parametrize(
+    "words, kwargs",
+    [
+        (("--lr", "nan"), dict(lr=float("nan"))),
+        (("--lr", "-1"), dict(lr=-1.0)),
+        (("--device", "tpu"), dict(device="tpu")),
+        (("--architecture", "pointnet", "--channels", "A+E"), dict(architecture="pointnet", channels="A+E")),
+        (("--architecture", "pointnet", "--depth", "2"), dict(architecture="pointnet", depth=2)),
+        (("--points", "12"), dict(n_points=12)),
+    ],
+)
+def test_a_bad_value_gives_fits_error(coll, words, kwargs, capsys):
+    with pytest.raises(ValueError) as from_fit:
+        train.fit(coll, epochs=1, progress=False, **kwargs)
+    with pytest.raises(ValueError) as from_cli:
+        config_from_args(_parse(*words))
+    assert str(from_cli.value) == str(from_fit.value)
+    with pytest.raises(ValueError) as direct:
+        TrainConfig(**kwargs)
+    assert str(direct.value) == str(from_fit.value)
+    # the command refuses it before it builds or reads a collection
+    assert main(["train", "--collection", "animals", "--run-dir", "run", *words]) == 1
+    assert str(from_fit.value) in capsys.readouterr().err
+
+
+def test_bad_values_refused_by_the_parser_and_by_the_config():
+    with pytest.raises(SystemExit):
+        _parse("--epochs", "0")
+    with pytest.raises(SystemExit):
+        _parse("--depth", "5")
+    with pytest.raises(ValueError, match="epochs must be a positive integer, got 0"):
+        TrainConfig(epochs=0)
+    with pytest.raises(ValueError, match="depth must be 1, 2, 3 or 4"):
+        TrainConfig(depth=5)
+    with pytest.raises(ValueError, match="variant must be one of"):
+        TrainConfig(variant="mine")
+    with pytest.raises(ValueError, match="schedule must be one of"):
+        TrainConfig(schedule="linear")
+    with pytest.raises(ValueError, match="architecture must be one of"):
+        TrainConfig(architecture="mlp")
