@@ -239,8 +239,16 @@ def _run(args) -> int:
             )
         specs = ckpt["config"].get("channel_specs", {})
         wanted = [c["name"] for c in d.get("channels", []) if c["name"] not in coll.kinds]  # channels of the user's
+        lost = [name for name in wanted if not specs.get(name)]
+        if lost:
+            raise ValueError(
+                f"{args.run_dir} was trained on the channels {lost}, whose class was not importable (defined in a "
+                "notebook or a script run as __main__); evaluate it from Python: "
+                "opnet.train.load_model(run_dir, collection.with_kinds([..., MyIP()])), or move the class into a "
+                "module on the Python path and train again."
+            )
         if wanted:
-            coll = coll.with_kinds([*coll.kinds, *(specs.get(name) or name for name in wanted)])
+            coll = coll.with_kinds([*coll.kinds, *(specs[name] for name in wanted)])
         net = model_from_checkpoint(ckpt, path, coll, device=args.device)
         if hasattr(net, "channels"):
             methods = [operatornet_method(net, coll), nearest_neighbour_method(coll, net.channels)]
