@@ -56,17 +56,17 @@ def training_data(collection, channels, pointnet: bool, device) -> TrainData:
             f"{len(val_idx)}); give it a splits.csv or use a larger preset."
         )
     chans = collection.channel_indices(channels) if channels else []
-    read = (
-        {"vertices": collection.vertices}
-        if pointnet
-        else {f"operators of {list(channels)}": collection.operators[:, chans], "vertices": collection.vertices}
-    )
+    seen = np.concatenate([train_idx, val_idx])
+    read = {"vertices": collection.vertices[seen]}
+    if not pointnet:  # only the channels the network reads
+        read = {"operators": collection.operators[seen][:, chans], **read}
     for name, arr in read.items():
-        bad = ~np.isfinite(arr[np.concatenate([train_idx, val_idx])]).reshape(len(train_idx) + len(val_idx), -1).all(1)
+        bad = ~np.isfinite(arr).reshape(len(seen), -1).all(1)
         if bad.any():
+            which = f" (channels {list(channels)})" if name == "operators" else ""
             raise ValueError(
                 f"the collection's {name} hold NaN or infinite values in {bad.sum()} train/val shapes "
-                f"(first: shape {np.concatenate([train_idx, val_idx])[bad][0]}); repair or drop them."
+                f"(first: shape {seen[bad][0]}){which}; repair or drop them."
             )
 
     def tensors(idx):  # (network input, target vertices)
