@@ -15,6 +15,9 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg
 
+from ._backend import areas as tensor_areas
+from ._backend import edge_weights as tensor_edge_weights
+from ._backend import is_tensor
 from ._checks import real_array
 from .mesh import Mesh, as_faces, corner_edges, face_areas, triangle_areas, unique_edges
 
@@ -158,10 +161,6 @@ def _scatter(values: np.ndarray, matrix: sp.spmatrix) -> np.ndarray:
     return np.asarray(matrix.T @ flat.T).T.reshape(*values.shape[:-1], matrix.shape[1])
 
 
-def _is_tensor(x) -> bool:
-    return type(x).__module__.split(".")[0] == "torch"
-
-
 def _checked(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     vertices = real_array("vertices", vertices, (..., "n", 3))
     return vertices, as_faces(faces, vertices.shape[-2])
@@ -173,10 +172,8 @@ def cotan_edge_weights(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     ``vertices`` is ``(..., n, 3)``. The stiffness is ``W = Σ_e w_e (δ_i − δ_j)(δ_i − δ_j)ᵀ``. A torch tensor of
     vertices gives a tensor, differentiable in them.
     """
-    if _is_tensor(vertices):
-        from ._backend import edge_weights  # torch only: the numpy path never loads it
-
-        return edge_weights(vertices, faces)
+    if is_tensor(vertices):  # torch is imported by _backend only when a tensor comes
+        return tensor_edge_weights(vertices, faces)
     vertices, faces = _checked(vertices, faces)
     return _edge_weights(vertices, faces, unique_edges(faces))
 
@@ -193,10 +190,8 @@ def vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     A torch tensor of vertices gives a tensor, differentiable in them (so an inner product written with it serves
     as its own ``project_torch``).
     """
-    if _is_tensor(vertices):
-        from ._backend import areas  # torch only: the numpy path below never loads it
-
-        return areas(vertices, faces)
+    if is_tensor(vertices):
+        return tensor_areas(vertices, faces)
     return _vertex_areas(*_checked(vertices, faces))
 
 

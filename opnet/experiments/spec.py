@@ -9,6 +9,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..data.channels import split_channels
 from ..evaluate import channel_label, channel_names
 from ..inner_products import INNER_PRODUCTS, channel_digest, get_inner_product, known_inner_products
 from ..shape_difference import CHANNEL_SETS, KINDS
@@ -56,11 +57,7 @@ class RunSpec:
             raise ValueError(f"architecture must be one of {ARCHITECTURES}, got {self.architecture!r}.")
         if self.variant not in VARIANTS:
             raise ValueError(f"variant must be one of {VARIANTS}, got {self.variant!r}.")
-        channels = self.channels
-        if isinstance(channels, str):
-            channels = CHANNEL_SETS.get(channels) or tuple(c.strip() for c in channels.split(","))
-        elif not isinstance(channels, (list, tuple)):
-            channels = (channels,)
+        channels = split_channels(self.channels)
         # names stay names (a collection resolves them); classes and "module:Class" become inner products
         channels = tuple(c if isinstance(c, str) and ":" not in c else get_inner_product(c) for c in channels)
         if self.architecture == "pointnet" and channels not in ((), KINDS):

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import torch
 
 from .._checks import check_int, check_number
+from ..data.channels import split_channels
 from ..inner_products import get_inner_product
 from ..model import ARCHITECTURES, VARIANTS
 from ..shape_difference import CHANNEL_SETS, KINDS
@@ -70,9 +71,7 @@ def parse_channels(channels, collection=None) -> tuple[str, ...]:
     """
     if collection is not None:
         return collection.channel_names(channels)
-    if isinstance(channels, str):
-        channels = CHANNEL_SETS[channels] if channels in CHANNEL_SETS else [c.strip() for c in channels.split(",")]
-    channels = tuple(get_inner_product(c).name for c in channels)
+    channels = tuple(get_inner_product(c).name for c in split_channels(channels))
     if not channels or len(set(channels)) != len(channels):
         raise ValueError(
             f"channels must be one or more channels without repeats (e.g. {KINDS}, or one of "
