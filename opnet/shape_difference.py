@@ -162,13 +162,20 @@ def shape_differences(
 
 
 def fast_path(
-    base_basis: Eigenbasis, vertices: np.ndarray, ips: list, *, batch_size: int = 64, progress: bool | None = False
+    base_basis: Eigenbasis,
+    vertices: np.ndarray,
+    ips: list,
+    *,
+    batch_size: int = 64,
+    progress: bool | None = False,
+    k0_pinv: list | None = None,
 ) -> np.ndarray:
     """:func:`shape_differences` of shapes already checked (float64 ``(B, n, 3)``, valid faces), for inner
-    products ``ips``; for callers that validated their input once already.
+    products ``ips``; for callers that validated their input once already. ``k0_pinv``: the base's
+    :func:`base_pinvs` of ``ips`` when the caller computed them already (a loop over chunks of shapes).
     """
     phi, faces = base_basis.evecs, base_basis.mesh.faces
-    k0_pinv = base_pinvs(base_basis, ips)
+    k0_pinv = base_pinvs(base_basis, ips) if k0_pinv is None else k0_pinv
     out = np.empty((len(vertices), len(ips), base_basis.k, base_basis.k))
     starts = range(0, len(vertices), batch_size)
     show = len(starts) > 1 if progress is None else progress

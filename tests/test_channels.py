@@ -350,6 +350,8 @@ def test_the_ablation_is_a_list_of_runs(stored, Radial, tmp_path):
     from opnet import reproduce
 
     assert reproduce.run_path(tmp_path, "table1", opnet.KINDS).name == "table1-A+E+C-d1"  # the folders of before
+    # the channel order is the network's input order: another order is another run
+    assert reproduce.run_path(tmp_path, "table1", ["extrinsic", "area"]).name == "table1-extrinsic+area-d1"
     assert reproduce.run_path(tmp_path, "ablation", ["area", Radial()], 2).name.startswith("ablation-area+radial_area-")
     text = table.markdown()
     assert "| Area+radial area |" in text and "depth 2" in text and "baseline" in text
@@ -425,6 +427,28 @@ def test_results_of_before_keep_loading():
         table = reproduce.ablation_table([dict(r, d_R=3e-4) for r in rows])
         assert table[1, list(reproduce.ABLATION_SETS).index("A+E")] == pytest.approx(3.0)
         assert np.isnan(table).sum() == table.size - 1
+
+
+def test_a_table1_of_before_renders_one_line_per_method():
+    """A results.json of before (rows named by ``method`` only, no ``run`` or ``baseline``) keeps its rows apart,
+    with the paper's numbers and the targets, as the reproduction of then wrote them."""
+    from opnet.experiments.report import results_markdown
+
+    names = ["OperatorNet (Int+Ext)", "OperatorNet ours (Int+Ext)", "Nearest neighbour (Int+Ext)", "Base shape"]
+    metrics = dict(n_shapes=4, seconds_per_shape=0.1, d_R_median=1e-4, d_V=0.1, d_E=0.1, train_seconds=None)
+    rows = [
+        dict(table="table1", method=m, channels="area,conformal,extrinsic", depth=1, split="test", d_R=(i + 1) * 1e-4)
+        | metrics
+        for i, m in enumerate([*names, "a method of one's own"])
+    ]
+    budget = dict(lr=1e-3, batch_size=32, epochs=1, ablation_epochs=1)
+    text = results_markdown(
+        rows, dict(preset="quick", machine="m", collection="c", eval_subset=4, budget=budget, wall_seconds=1.0)
+    )
+    lines = [line for line in text.splitlines() if line.startswith("| ") and "test: d_R" not in line]
+    assert [line.split(" | ")[0][2:] for line in lines] == [*names, "a method of one's own"]
+    assert lines[0].split(" | ")[4] == "1.11"  # the paper's d_R beside the paper's network
+    assert "NN's d_R / OperatorNet (Int+Ext)'s = 3.0" in text and "d_R / ours = 0.50" in text
 
 
 def test_digests_are_the_same_in_every_process_and_see_a_subclass_code(tmp_path):

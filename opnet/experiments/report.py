@@ -23,6 +23,7 @@ from .._files import atomic_write
 from ..evaluate import TEST_SETS, channel_label, channel_names
 from ..shape_difference import KINDS
 from .paper import PAPER_ABLATION, PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS, PAPER_TABLE1
+from .spec import RunSpec
 
 __all__ = [
     "write_results",
@@ -33,6 +34,7 @@ __all__ = [
     "ablation_table",
     "row_channels",
     "row_key",
+    "upgrade_rows",
     "matches",
     "paper_table1",
     "PAPER_TABLE1_ROWS",
@@ -83,9 +85,54 @@ def matches(row: dict, **fields) -> bool:
     return True
 
 
+def _legacy_fields() -> dict:
+    """Method name → structured fields, for the rows of a ``results.json`` written before rows had them.
+
+    Older reproductions named each row by its display name alone, always from this fixed list; an exact lookup in
+    it (never a parse) gives those rows the fields of the runs and baselines they stand for.
+    """
+    runs = {
+        "OperatorNet (Int+Ext)": RunSpec(KINDS, group="table1"),
+        "OperatorNet (Int)": RunSpec(("area", "conformal"), group="table1"),
+        "OperatorNet (Ext)": RunSpec(("extrinsic",), group="table1"),
+        "OperatorNet ours (Int+Ext)": RunSpec(KINDS, variant="ours", group="table1"),
+        "OperatorNet (Comp)(Int+Ext)": RunSpec(KINDS, group="comp"),
+        "OperatorNet (Comp)(Ext)": RunSpec(("extrinsic",), group="comp"),
+        "PointNet AE": RunSpec(architecture="pointnet", group="table1"),
+    }
+    fields = {name: {**spec.fields(), "group": spec.group} for name, spec in runs.items()}
+    no_channels = {k: v for k, v in fields["OperatorNet (Int+Ext)"].items() if k != "channels"}
+    fields |= {f"{name} + refinement": dict(fields[name], refined=True) for name in list(fields)}
+    fields |= {  # the applications' methods (their rows carry ``scheme``)
+        "OperatorNet (mult.)": no_channels,
+        "OperatorNet (linear)": no_channels,
+        "OperatorNet (mult.) + refinement": dict(no_channels, refined=True),
+        "OperatorNet ours (mult.)": {k: v for k, v in fields["OperatorNet ours (Int+Ext)"].items() if k != "channels"},
+    }
+    baselines = {"Nearest neighbour (Int+Ext)", "Nearest neighbour"}
+    fields |= {name: dict(baseline="nearest_neighbour") for name in baselines}
+    return fields | {"Base shape": dict(baseline="base_shape"), "Geometric (A+E)": dict(baseline="geometric")}
+
+
+def upgrade_rows(rows: list[dict]) -> list[dict]:
+    """``rows`` with the structured fields filled in where an older ``results.json`` lacks them.
+
+    A row without ``run`` and ``baseline`` (written before rows had them) gets the fields of the method it is named
+    for (:func:`_legacy_fields`, an exact lookup); rows that have them, and names that are not in the list, are
+    returned as they are (the latter still tell themselves apart by :func:`row_key`).
+    """
+    legacy = _legacy_fields()
+    return [{**legacy.get(r.get("method"), {}), **r} if "run" not in r and "baseline" not in r else r for r in rows]
+
+
 def row_key(row: dict) -> tuple:
-    """What tells the methods of one table apart: ``(run, baseline, refined)``; its rows share it across splits."""
-    return row.get("run"), row.get("baseline"), bool(row.get("refined"))
+    """What tells the methods of one table apart: ``(run, baseline, refined)``; its rows share it across splits.
+
+    A row with neither ``run`` nor ``baseline`` (an older file's, not in :func:`upgrade_rows`' list) is told apart by
+    its ``method``, the only identity it has.
+    """
+    legacy = row.get("method") if row.get("run") is None and row.get("baseline") is None else None
+    return row.get("run"), row.get("baseline"), bool(row.get("refined")), legacy
 
 
 def paper_table1(row: dict) -> tuple | None:
@@ -138,6 +185,7 @@ def results_markdown(rows: list[dict], context: dict) -> str:
     (the reproduction's budget as a dict: ``lr``, ``batch_size``, ``epochs``, ``ablation_epochs``...).
     """
     b = context["budget"]
+    rows = upgrade_rows(rows)
     lines = [
         f"# OperatorNet reproduction · preset `{context['preset']}`",
         "",

@@ -88,16 +88,19 @@ class RunSpec:
     def run_name(self) -> str:
         """The run directory's name: ``<group>-<channels>-d<depth>[-<variant>]`` (``<group>-pointnet``).
 
-        A set of built-in channels goes by its short name (``A+E+C``, ``Ext``: the folders reproduce always used);
-        a set with channels of your own by their names and a digest of their implementations, so that editing a
-        class trains a new run instead of resuming one of the old code. A seed other than 0 and extra options add
-        ``-s<seed>`` and a digest of the options.
+        Built-in channels in the order of a short name of :data:`opnet.CHANNEL_SETS` go by it (``A+E+C``, ``Ext``:
+        the folders reproduce always used), in another order by their names (``extrinsic+area``: the channel order
+        is the network's input order, so another network); a set with channels of your own by their names and a
+        digest of their implementations, so that editing a class trains a new run instead of resuming one of the old
+        code. A seed other than 0 and extra options add ``-s<seed>`` and a digest of the options.
         """
         if self.architecture == "pointnet":
             stem = f"{self.group}-pointnet"
         else:
             names = self.channel_names
-            short = next((k for k, v in CHANNEL_SETS.items() if set(v) == set(names)), None)
+            short = next((k for k, v in CHANNEL_SETS.items() if v == names), None)
+            if short is None and all(isinstance(c, str) and c in INNER_PRODUCTS for c in self.channels):
+                short = "+".join(names)  # built-ins in another order than the short name's: another network
             if short is None:
                 own = [c for c in self.channels if not (isinstance(c, str) and c in INNER_PRODUCTS)]
                 known = known_inner_products()  # a name of one's own that is not registered: by its name alone
