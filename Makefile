@@ -2,6 +2,8 @@
 #   make run    executes the notebooks at a small preset into build/ (notebooks + HTML)
 #   make test   runs the unit tests and the notebooks (nbval), and builds the documentation site
 # Both set OPNET_STATIC_WIDGETS=1: no kernel drives the widgets there, so notebooks show pictures instead.
+#   make test-fast  the core tier: the tests not marked slow, docs or notebooks (what to run after each edit)
+#   make test-core  the core tier in .venv-core, an environment with opnet alone (no extras), as `pip install .`
 #   make docs   the documentation site into build/docs/ (warnings are errors, every reference must resolve;
 #               Python >= 3.11, and every extra: the API pages import the modules)
 #   make reproduce PRESET=default   Table 1 + ablation into build/reproduce-$(PRESET) (results.json/md, figures)
@@ -14,7 +16,7 @@ STAMP  := $(VENV)/.installed-stamp
 # machines; an unpinned torch would pull a multi-GB CUDA build. The package accepts any recent torch.
 TORCH  ?= torch==2.13.0
 
-.PHONY: run test docs reproduce clean
+.PHONY: run test test-fast test-core docs reproduce clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -33,7 +35,24 @@ run: $(STAMP)
 test: $(STAMP)
 	$(PY) -m ruff format --check .
 	$(PY) -m ruff check .
-	OPNET_PRESET=quick OPNET_STATIC_WIDGETS=1 $(PY) -m pytest
+	OPNET_PRESET=quick OPNET_STATIC_WIDGETS=1 $(PY) -m pytest --durations=30
+
+# The tiers are pytest markers (pyproject.toml); FAST selects the core tier.
+FAST := not slow and not docs and not notebooks
+
+test-fast: $(STAMP)
+	OPNET_PRESET=quick OPNET_STATIC_WIDGETS=1 $(PY) -m pytest tests -m "$(FAST)"
+
+CORE_STAMP := .venv-core/.installed-stamp
+$(CORE_STAMP): pyproject.toml
+	$(PYTHON) -m venv .venv-core
+	.venv-core/bin/python -m pip install --quiet --upgrade pip
+	.venv-core/bin/python -m pip install --quiet -e . pytest  # editable: the tree as it is, its extras left out
+	touch $(CORE_STAMP)
+
+# Without the test extra's plugins (nbval): the options that need them are dropped.
+test-core: $(CORE_STAMP)
+	cd tests && OPNET_PRESET=quick ../.venv-core/bin/python -m pytest -o addopts="-p no:cacheprovider" -m "$(FAST)" .
 
 # The notebooks are rendered from their committed outputs (no execution): about 15 s on 2 cores.
 docs: $(STAMP)
@@ -45,4 +64,4 @@ reproduce: $(STAMP)
 	$(PY) -m opnet reproduce --preset $(PRESET) --out build/reproduce-$(PRESET)
 
 clean:
-	rm -rf build $(VENV)
+	rm -rf build $(VENV) .venv-core

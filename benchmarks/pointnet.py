@@ -2,8 +2,8 @@
 
 Trains the PointNet autoencoder through :func:`opnet.train.fit` on the humans of a preset once per ``--points``
 value (same data, seed, epochs, batch size and learning rate), and prints the seconds per epoch and the best
-``val`` d_R (×10⁻⁴); ``test`` is never read. The README's PointNet paragraph was measured at ``--preset quick``
-(80 epochs, batch 16, one torch thread).
+``val`` d_R (×10⁻⁴); ``test`` is never read. The PointNet paragraph of docs/results.md was measured at
+``--preset quick`` (80 epochs, batch 16, one torch thread).
 
 Run::
 

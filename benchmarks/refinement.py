@@ -6,7 +6,7 @@ trained, ``DIR/runs/table1-A+E+C-d1``), decodes every ``--every``-th ``val`` sha
 operators matched, smoothness weight and number of steps. It prints the mean ``d_R`` (×10⁻⁴) after 0, 10, 30,
 100, 300, 1000 steps (as far as each setting goes), the final relative operator mismatch and the seconds per
 shape; then coarse-to-fine schedules over ``k`` (the leading ``m × m`` operators first). ``test`` is never read.
-The README's refinement table was measured at ``--preset default --every 4``.
+The refinement table of docs/results.md was measured at ``--preset default --every 4``.
 
 Run::
 

@@ -10,7 +10,7 @@ Trains, through :func:`opnet.train.fit` (same data, seed, epochs, batch size and
 
 each in its own run directory under ``--out`` (a second call reuses finished runs, an interrupted one resumes),
 and prints the best ``val`` d_R (×10⁻⁴), its epoch, the training time and the ratio to ``paper``. ``test`` is never
-read. The README's variant table was measured at ``--preset default`` (60 epochs, batch 32).
+read. The variant table of docs/results.md was measured at ``--preset default`` (60 epochs, batch 32).
 
 Run::
 

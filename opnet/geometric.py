@@ -139,7 +139,7 @@ def reconstruct(
         bounding-box diagonal (default 1; later steps are scaled by the curvature pairs). Adam: its step size in
         length units (default 1e-3).
     smoothness : weight of the displacement's Dirichlet energy (0 disables it; the default 1 was chosen on
-        ``val``, README).
+        ``val``, ``docs/results.md``).
     batch_size : shapes optimised together (each has its own objective; the batch shares the iterations).
     device : where to compute: ``"cpu"`` (default), ``"cuda"``, or ``"auto"`` (CUDA when available); float64.
     callback : called as ``callback(step, X, mismatch)`` after every step, with ``step`` from 0 (the start),
@@ -147,8 +147,8 @@ def reconstruct(
         mismatch (tensors, detached); e.g. to record curves. Batches come one after the other.
     coarse_to_fine : increasing sizes ``m < k``, e.g. ``(20, 40)``: first match the leading ``m × m`` operators
         (:func:`truncate_operators`, on ``base_basis.truncate(m)``) for ``steps`` steps at each size in turn, then
-        the full ones for ``steps`` more. Measured on ``val`` (README): as accurate as one stage with as many steps
-        in about half the time. ``callback`` then sees the steps of all stages, numbered on.
+        the full ones for ``steps`` more. Measured on ``val`` (``docs/results.md``): as accurate as one stage with as
+        many steps in about half the time. ``callback`` then sees the steps of all stages, numbered on.
     progress : show a progress bar over the steps of all batches (default: on).
 
     Returns

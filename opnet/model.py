@@ -82,7 +82,8 @@ class OperatorNet(nn.Module):
         Shape differences of shapes close to the base are close to the identity, so ``D − I`` is the part
         that varies and a zero input means "the base shape"; it is subtracted inside :meth:`forward`, so the
         network is always called on the operators themselves. Measured on ``val`` (``benchmarks/training.py
-        --scaling``, README): over 4 seeds ``D − I`` gave a 10 % lower mean error, within the seed-to-seed spread.
+        --scaling``, ``docs/results.md``): over 4 seeds ``D − I`` gave a 10 % lower mean error, within the
+        seed-to-seed spread.
     standardize : feed ``(D − μ) / σ`` with ``μ``, ``σ`` the per-entry mean and standard deviation of the training
         operators (buffers ``input_mean``, ``input_std`` ``(C, k, k)``, set by :meth:`set_statistics`; replaces
         ``subtract_identity``). The entries of ``D − I`` are ~1e-2, so the first layer otherwise sees tiny inputs.
@@ -91,7 +92,7 @@ class OperatorNet(nn.Module):
 
     Notes
     -----
-    ``standardize=True, residual=True`` is this project's variant (:data:`VARIANTS` ``["ours"]``); the README
+    ``standardize=True, residual=True`` is this project's variant (:data:`VARIANTS` ``["ours"]``); ``docs/results.md``
     reports how each part changes the validation error. Both sets of buffers are saved with the weights.
     """
 

@@ -164,8 +164,8 @@ ABLATION_DEPTHS = PAPER_ABLATION_DEPTHS
 
 #: This project's variant (:data:`opnet.model.VARIANTS` ``["ours"]``), trained like Table 1's networks.
 OURS = {"OperatorNet ours (Int+Ext)": KINDS}
-#: The operator-matching rows (:func:`opnet.reconstruct`): its settings, chosen on ``val`` (README), and the
-#: test sets they are evaluated on (at most ``Budget.refine_shapes`` shapes of each).
+#: The operator-matching rows (:func:`opnet.reconstruct`): its settings, chosen on ``val`` (``docs/results.md``), and
+#: the test sets they are evaluated on (at most ``Budget.refine_shapes`` shapes of each).
 REFINE = dict(channels=("area", "extrinsic"), optimizer="lbfgs", smoothness=1.0)
 #: The test sets on which the operator-matching rows are evaluated.
 REFINE_SETS = ("test", "test_subjects")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib.util
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -28,7 +30,8 @@ def check_inner_product(ip, mesh: Mesh, *, k: int = 20, rtol: float = 1e-8) -> d
     and then the operators (and OperatorNet's input) change when the shape moves.
 
     Returns ``{"symmetric", "psd", "batch_equals_single", "torch_equals_numpy", "rigid_invariant"}`` → bool (the
-    required ones ``True``; ``torch_equals_numpy`` is ``None`` without a ``project_torch``).
+    required ones ``True``; ``torch_equals_numpy`` is ``None`` without a ``project_torch``, or without torch
+    installed: nothing can call it then).
     """
     ip = get_inner_product(ip)
     if not isinstance(mesh, Mesh):
@@ -62,7 +65,7 @@ def check_inner_product(ip, mesh: Mesh, *, k: int = 20, rtol: float = 1e-8) -> d
             + "); fix project_batch or do not override it."
         )
     result["torch_equals_numpy"] = None
-    if has_torch_form(ip):
+    if has_torch_form(ip) and importlib.util.find_spec("torch") is not None:  # a core-only install cannot run it
         message = _torch_mismatch(ip, np.stack([v, stretched]), f, phi, single, scale)
         result["torch_equals_numpy"] = message is None
         if message:

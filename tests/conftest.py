@@ -1,11 +1,45 @@
-"""Shared small meshes (a capsule base and smooth deformations of it, all in 1-1 correspondence), and the quick
-humans generated once per session."""
+"""Shared small meshes (a capsule base and smooth deformations of it, all in 1-1 correspondence), small collections
+of them (the factories ``tiny_collection`` and ``toy_collection``), and the quick humans generated once per session."""
+
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
 import opnet
 from opnet.data import toy
+from opnet.data.build import assemble
+from opnet.data.generators import stem_name
+
+# -- the tiers (markers declared in pyproject.toml) ----------------------------------------------------------------
+#: Test modules whose every test belongs to a tier (other slow tests carry ``@pytest.mark.slow`` themselves).
+_MODULE_TIERS = {
+    "test_docs": "docs",
+    "test_docs_site": "docs",
+    "test_matching": "maps",
+    "test_mapped": "maps",
+    "test_anny_collections": "slow",
+    "test_bodies": "slow",  # the body model: its first use builds a cache for minutes
+}
+#: Fixtures that make a test slow: the generated humans (the body model builds them; minutes on a cold cache).
+_SLOW_FIXTURES = {"humans"}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark the notebooks ``notebooks``, the docs tests ``docs``, the maps tests ``maps``, and every test that reads
+    the generated humans ``slow`` (other slow tests carry the mark themselves)."""
+    for item in items:
+        path = item.path
+        if path.suffix == ".ipynb":
+            item.add_marker(pytest.mark.notebooks)
+            item.add_marker(pytest.mark.slow)
+            continue
+        tier = _MODULE_TIERS.get(path.stem)
+        if tier is not None:
+            item.add_marker(getattr(pytest.mark, tier))
+        if _SLOW_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)
 
 
 @pytest.fixture(scope="session")
@@ -16,6 +50,17 @@ def root(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def humans(root):
+    """The quick humans, read from the session's data root (where the tests that build collections write).
+
+    They are built once into opnet's data cache (``OPNET_DATA_DIR``, else ``~/.cache/opnet``) and copied from there,
+    so that a later test run (and ``make run``) does not build them again; where that cache cannot be written, they
+    are built in the session's root. A test that needs a fresh build makes one in its own folder.
+    """
+    try:
+        cached = opnet.data.load_collection("humans", "quick", progress=False)
+    except (opnet.data.CollectionError, OSError):  # an unusable cache: build them here instead
+        return opnet.data.load_collection("humans", "quick", root, progress=False)
+    opnet.data.save_collection(cached, root / stem_name(cached.meta))
     return opnet.data.load_collection("humans", "quick", root, progress=False)
 
 
@@ -65,3 +110,68 @@ def toy_twist(v):
     ang = 0.8 * v[:, 2]
     c, s = np.cos(ang), np.sin(ang)
     return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1], 1.2 * v[:, 2]], axis=1)
+
+
+# -- small collections of toy capsules (no body model), built by the tests that need them --------------------------
+
+
+def _tiny_collection(name="tiny", n=40, seed=0):
+    """``n`` bent and bulged capsules (430 vertices, k = 20) with train / val / test / test_subjects splits."""
+    rng = np.random.default_rng(seed)
+    base = toy.capsule("quick")
+    angles, amounts = rng.uniform(-1.2, 1.2, n), rng.uniform(-0.25, 0.3, n)
+    V = np.stack([toy.bend(toy.bulge(base.vertices, b), a) for a, b in zip(angles, amounts)])
+    split = np.array(["train"] * (n - 12) + ["val"] * 4 + ["test"] * 4 + ["test_subjects"] * 4)
+    sub = np.array([f"s{i // 4}" for i in range(n)])
+    meta = dict(name=name, preset="tiny", resolution="430", seed=seed, generator_version="test")
+    return assemble(V, base.faces, base.vertices, split, sub, sub, {"angle": angles}, meta, k=20, progress=False)
+
+
+def _toy_collection(seed=0, n_subjects=4, groups=("bend", "bulge", "both"), frames=3):
+    """Capsules of ``n_subjects`` widths × ``groups`` (bend, bulge, both) × ``frames``, split by
+    :func:`opnet.data.make_splits` like the generated collections (k = 20)."""
+    rng = np.random.default_rng(seed)
+    base = toy.capsule("quick")
+    V, subj, grp = [], [], []
+    for s in range(n_subjects):
+        width = rng.uniform(0.8, 1.2)
+        for g in groups:
+            for t in np.linspace(0.2, 1.0, frames):
+                v = base.vertices * [width, width, 1.0]
+                if g in ("bend", "both"):
+                    v = toy.bend(v, t * 1.2)
+                if g in ("bulge", "both"):
+                    v = toy.bulge(v, 0.4 * t)
+                V.append(v)
+                subj.append(s)
+                grp.append(g)
+    subj, grp = np.array(subj), np.array(grp)
+    split = opnet.data.make_splits(subj, grp, rng, n_test_subcollections=2, n_test_subjects=1, n_val_subcollections=1)
+    names = np.array([f"subject{s:02d}" for s in subj])
+    sub = np.array([f"{name}/{g}" for name, g in zip(names, grp)])
+    meta = dict(name="toy", preset="quick", resolution="quick", seed=seed, generator_version="test")
+    return assemble(
+        np.stack(V), base.faces, base.vertices, split, sub, names, {"group": grp}, meta, k=20, progress=False, n_eval=2
+    )
+
+
+@pytest.fixture(scope="session")
+def tiny_collection():
+    """The factory of tiny collections, ``tiny_collection(name="tiny", n=40, seed=0)`` (a fresh one per call)."""
+    return _tiny_collection
+
+
+@pytest.fixture(scope="session")
+def toy_collection():
+    """The factory of toy collections with subjects and motions, ``toy_collection(seed=0, n_subjects=4, ...)``."""
+    return _toy_collection
+
+
+def _run_cli(*args, env=None, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "opnet", *args], capture_output=True, text=True, env=env, **kw)
+
+
+@pytest.fixture(scope="session")
+def cli():
+    """``cli(*args, env=None, **kw)``: ``python -m opnet *args`` in a subprocess, output captured as text."""
+    return _run_cli

@@ -1,18 +1,22 @@
 """Applications: the PointNet autoencoder, interpolation / analogy as shapes, and the ground-truth benchmarks."""
 
-import numpy as np
 import pytest
+
+pytest.importorskip("torch")  # the net extra: skipped by a core-only install
+
+import numpy as np
 import torch
-from test_train import FAST, tiny_collection
 
 import opnet
 from opnet import apps, train
 from opnet.data import generators
 from opnet.model import PointNetAutoencoder, build_model
 
+FAST = dict(hidden=64, batch_size=8, lr=1e-3, progress=False)
+
 
 @pytest.fixture(scope="module")
-def coll():
+def coll(tiny_collection):
     return tiny_collection()
 
 
@@ -93,14 +97,13 @@ def test_pointnet_trains_checkpoints_and_resumes_like_operatornet(coll, tmp_path
     assert rows[0]["method"] == "PointNet AE" and np.isfinite(rows[0]["d_R"])
 
 
-def test_cli_trains_and_evaluates_the_pointnet_autoencoder(coll, tmp_path):
-    from test_train import _cli
-
+@pytest.mark.slow
+def test_cli_trains_and_evaluates_the_pointnet_autoencoder(coll, tmp_path, cli):
     from opnet.data import save_collection
 
     manifest = save_collection(coll, tmp_path / "data" / "tiny")
     run = tmp_path / "pn"
-    out = _cli(
+    out = cli(
         "train",
         "--collection",
         str(manifest),
@@ -119,10 +122,10 @@ def test_cli_trains_and_evaluates_the_pointnet_autoencoder(coll, tmp_path):
     )
     assert out.returncode == 0, out.stderr
     assert isinstance(train.load_model(run), PointNetAutoencoder) and train.load_model(run).n_points == 32
-    out = _cli("evaluate", "--run-dir", str(run), "--collection", str(manifest), "--json", str(tmp_path / "e.json"))
+    out = cli("evaluate", "--run-dir", str(run), "--collection", str(manifest), "--json", str(tmp_path / "e.json"))
     assert out.returncode == 0, out.stderr
     assert "PointNet AE" in out.stdout and "Nearest neighbour (Int+Ext)" in out.stdout
-    bad = _cli(
+    bad = cli(
         "train",
         "--collection",
         str(manifest),

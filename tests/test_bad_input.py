@@ -3,11 +3,12 @@ what it got and what to do (issue 8's classes: near-degenerate geometry, shape m
 inner products, non-finite values, empty batches). Storage is tested in test_collections, the documentation's
 code blocks in test_docs."""
 
+import importlib
+import importlib.util
 import warnings
 
 import numpy as np
 import pytest
-import torch
 import trimesh
 
 import opnet
@@ -54,7 +55,7 @@ def test_the_warning_threshold_is_where_one_face_outweighs_the_shape(base, base_
             D = opnet.shape_difference(base_basis, _sliver(base, scale), "conformal")
         return np.linalg.norm(D - exact) / np.linalg.norm(exact)
 
-    assert change(0.1) == pytest.approx(0.08, rel=0.1)  # the README's figures: q = 0.23, 2.4e-3, 2.4e-4
+    assert change(0.1) == pytest.approx(0.08, rel=0.1)  # docs/usage.md's figures: q = 0.23, 2.4e-3, 2.4e-4
     assert change(1e-3) == pytest.approx(6, rel=0.1) and change(1e-4) == pytest.approx(60, rel=0.1)
 
 
@@ -156,13 +157,18 @@ def _numpy_entry_points(base, basis):
         ("K", lambda x: opnet.pinv_psd(x), D),
         ("f", lambda x: basis.project(x), V),
         ("vertices", lambda x: opnet.vertex_areas(x, base.faces), V),
-        (
-            "operators",
-            lambda x: opnet.reconstruct(x, basis, channels=("area",), steps=1, progress=False),
-            D[None, None],
-        ),
         ("matrix", lambda x: opnet.FunctionalMap(x, basis, basis).matrix, D),
-    ]
+    ] + (
+        [  # the optimisation is the net extra's (torch)
+            (
+                "operators",
+                lambda x: opnet.reconstruct(x, basis, channels=("area",), steps=1, progress=False),
+                D[None, None],
+            )
+        ]
+        if importlib.util.find_spec("torch")
+        else []
+    )
 
 
 def test_complex_input_is_refused_not_truncated(base, base_basis):
@@ -172,11 +178,12 @@ def test_complex_input_is_refused_not_truncated(base, base_basis):
 
 
 def test_strings_are_refused_and_lists_and_tensors_converted(base, base_basis):
+    torch = importlib.util.find_spec("torch") and importlib.import_module("torch")  # tensors: the net extra
     for name, call, good in _numpy_entry_points(base, base_basis):
         with pytest.raises(TypeError, match=f"{name} must be a real array"):
             call("shape.ply")
         expected = call(good)
-        for converted in (good.tolist(), torch.tensor(good)):
+        for converted in (good.tolist(), *([torch.tensor(good)] if torch else [])):
             got = call(converted)
             np.testing.assert_allclose(
                 got[0] if isinstance(got, tuple) else got, expected[0] if isinstance(expected, tuple) else expected
@@ -184,6 +191,7 @@ def test_strings_are_refused_and_lists_and_tensors_converted(base, base_basis):
 
 
 def test_the_network_converts_what_it_can_without_loss_and_names_the_rest():
+    torch = pytest.importorskip("torch")  # the network and the loss: the net extra
     net = opnet.OperatorNet(20, k=6, hidden=8).eval()
     ops = np.random.default_rng(0).normal(size=(2, 3, 6, 6)).astype(np.float32)
     expected = net(torch.from_numpy(ops))
@@ -212,6 +220,7 @@ def test_the_network_converts_what_it_can_without_loss_and_names_the_rest():
 
 
 def test_the_loss_takes_numpy_targets_and_names_bad_arguments():
+    torch = pytest.importorskip("torch")  # the network and the loss: the net extra
     pred = torch.randn(2, 10, 3, requires_grad=True)
     target = np.random.default_rng(0).normal(size=(2, 10, 3))
     loss = opnet.rigid_alignment_loss(pred, target)
@@ -282,6 +291,7 @@ def test_non_finite_values_are_named_by_argument(base, base_basis):
         bad.flat[1] = np.nan
         with pytest.raises(ValueError, match=f"{name} contains 1 NaN or infinite values"):
             call(bad)
+    torch = pytest.importorskip("torch")  # the network and the loss: the net extra
     net = opnet.OperatorNet(base.n_vertices, k=base_basis.k, hidden=8)
     with pytest.raises(ValueError, match="operators contains"):
         opnet.evaluate.predict(net, np.full((1, 3, base_basis.k, base_basis.k), np.inf))
@@ -293,6 +303,7 @@ def test_non_finite_values_are_named_by_argument(base, base_basis):
 
 
 def test_values_beyond_float32_and_bfloat16_tensors(base_basis):
+    torch = pytest.importorskip("torch")  # the network and the loss: the net extra
     net = opnet.OperatorNet(20, k=4, hidden=8)
     with pytest.raises(ValueError, match="beyond the range of float32"):
         opnet.evaluate.predict(net, np.full((1, 3, 4, 4), 1e300))
@@ -301,6 +312,7 @@ def test_values_beyond_float32_and_bfloat16_tensors(base_basis):
 
 
 def test_empty_batches_are_refused():
+    torch = pytest.importorskip("torch")  # the network and the loss: the net extra
     with pytest.raises(ValueError, match="batch is empty"):
         opnet.rigid_alignment_loss(torch.zeros(0, 4, 3), torch.zeros(0, 4, 3))
     with pytest.raises(ValueError, match="n >= 1 points"):

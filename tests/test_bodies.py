@@ -1,8 +1,11 @@
 """Anny bodies, heads and hands (opnet.data.humans, heads, hands and anny_adapter): shapes, validity, motions,
 determinism, the adapter's version check and model cache."""
 
-import numpy as np
 import pytest
+
+pytest.importorskip("anny")  # the data extra: skipped by a core-only install
+
+import numpy as np
 import torch
 import trimesh
 

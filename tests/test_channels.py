@@ -3,6 +3,10 @@ keyed by its implementation), training, evaluation, the ablation, refinement and
 product here is the test's own: the area weighted by the squared distance to the area-weighted centroid, which is
 rigid-invariant and has numpy, batched and torch forms."""
 
+import pytest
+
+pytest.importorskip("torch")  # the net extra: skipped by a core-only install
+
 import importlib
 import json
 import os
@@ -10,7 +14,6 @@ import subprocess
 import sys
 
 import numpy as np
-import pytest
 import torch
 
 import opnet
@@ -71,9 +74,7 @@ def Radial(radial_module):
 
 
 @pytest.fixture(scope="module")
-def coll():
-    from test_train import tiny_collection
-
+def coll(tiny_collection):
     return tiny_collection()
 
 
@@ -254,9 +255,8 @@ def test_a_channel_that_sees_rigid_motions_warns(coll):
         assert coll.with_kinds([Height()], n_jobs=1).kinds == ("height",)
 
 
-def test_folder_and_mapped_collections_take_kinds(tmp_path, Radial, humans, root):
+def test_folder_and_mapped_collections_take_kinds(tmp_path, Radial, humans, root, tiny_collection):
     import trimesh
-    from test_train import tiny_collection
 
     c = tiny_collection(n=16)
     for i, v in enumerate(c.vertices):
@@ -390,6 +390,7 @@ def test_reconstruct_and_the_algebra_use_the_channel(stored, Radial):
 # the command line
 
 
+@pytest.mark.slow
 def test_the_command_line_imports_a_module_class(stored, radial_module, tmp_path):
     manifest = save_collection(stored, tmp_path / "data" / "tiny")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.dirname(radial_module.__file__), *sys.path]))

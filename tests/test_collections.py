@@ -14,37 +14,10 @@ import trimesh
 
 import opnet
 from opnet.data import CollectionError, toy
-from opnet.data.build import assemble
-
-
-def toy_collection(seed=0, n_subjects=4, groups=("bend", "bulge", "both"), frames=3):
-    rng = np.random.default_rng(seed)
-    base = toy.capsule("quick")
-    V, subj, grp = [], [], []
-    for s in range(n_subjects):
-        width = rng.uniform(0.8, 1.2)
-        for g in groups:
-            for t in np.linspace(0.2, 1.0, frames):
-                v = base.vertices * [width, width, 1.0]
-                if g in ("bend", "both"):
-                    v = toy.bend(v, t * 1.2)
-                if g in ("bulge", "both"):
-                    v = toy.bulge(v, 0.4 * t)
-                V.append(v)
-                subj.append(s)
-                grp.append(g)
-    subj, grp = np.array(subj), np.array(grp)
-    split = opnet.data.make_splits(subj, grp, rng, n_test_subcollections=2, n_test_subjects=1, n_val_subcollections=1)
-    names = np.array([f"subject{s:02d}" for s in subj])
-    sub = np.array([f"{name}/{g}" for name, g in zip(names, grp)])
-    meta = dict(name="toy", preset="quick", resolution="quick", seed=seed, generator_version="test")
-    return assemble(
-        np.stack(V), base.faces, base.vertices, split, sub, names, {"group": grp}, meta, k=20, progress=False, n_eval=2
-    )
 
 
 @pytest.fixture(scope="module")
-def coll():
+def coll(toy_collection):
     return toy_collection()
 
 
@@ -159,7 +132,7 @@ def test_a_killed_rebuild_keeps_the_previous_collection(coll, tmp_path):
     np.testing.assert_array_equal(back.operators, coll.operators)
 
 
-def test_rewrites_leave_one_data_file(coll, tmp_path):
+def test_rewrites_leave_one_data_file(coll, tmp_path, toy_collection):
     small = toy_collection(n_subjects=3)
     opnet.data.save_collection(coll, tmp_path / "c")
     opnet.data.save_collection(small, tmp_path / "c")
@@ -168,6 +141,7 @@ def test_rewrites_leave_one_data_file(coll, tmp_path):
 
 
 def test_torch_dataset(coll):
+    pytest.importorskip("torch")
     ds = opnet.data.OperatorDataset(coll, "train", channels=("area", "extrinsic"))
     ops, verts = ds[0]
     assert ops.shape == (2, 20, 20) and verts.shape == (coll.vertices.shape[1], 3)
@@ -224,7 +198,7 @@ def test_user_folder_loader(tmp_path):
         opnet.data.load_folder(folder)
 
 
-def test_determinism():
+def test_determinism(toy_collection):
     a, b = toy_collection(seed=3), toy_collection(seed=3)
     np.testing.assert_array_equal(a.split, b.split)
     np.testing.assert_array_equal(a.operators, b.operators)

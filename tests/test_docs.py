@@ -1,7 +1,7 @@
 """The code blocks of README.md and docs/*.md run as written.
 
 Each document's Python blocks run top to bottom in one namespace (as a reader pasting them into one session
-would), in a temporary folder that holds the files the README reads as "your own data": ``body.ply`` (a closed
+would), in a temporary folder that holds the files the pages read as "your own data": ``body.ply`` (a closed
 body mesh of another triangulation) and ``my_registrations/`` (meshes in correspondence). A block preceded by
 ``<!-- docs-test: skip (reason) -->`` is not run. Shell blocks are not run (they start the long jobs); every
 ``python -m opnet ...`` line in them is parsed by the command-line parser, so a renamed flag fails here.
@@ -39,9 +39,10 @@ def run_blocks(path: Path) -> None:
 
 
 def test_blocks_are_found_and_broken_ones_fail(tmp_path):
-    """The extraction and the runner themselves: the README holds Python and shell blocks, the skip mark drops a
-    block, and a block using an undefined name (as the old README's sixth line did) fails."""
-    assert len(blocks(ROOT / "README.md", "python")) >= 5 and blocks(ROOT / "README.md", "bash")
+    """The extraction and the runner themselves: the README and the usage page hold Python and shell blocks, the skip
+    mark drops a block, and a block using an undefined name (as an old README's sixth line did) fails."""
+    assert len(blocks(ROOT / "README.md", "python")) >= 2 and blocks(ROOT / "README.md", "bash")
+    assert len(blocks(ROOT / "docs" / "usage.md", "python")) >= 5
     doc = tmp_path / "doc.md"
     doc.write_text("<!-- docs-test: skip (why) -->\n```python\nboom()\n```\n\n```python\nx = 1\n```\n")
     assert blocks(doc, "python") == ["x = 1"]
@@ -53,7 +54,7 @@ def test_blocks_are_found_and_broken_ones_fail(tmp_path):
 
 @pytest.fixture
 def reader_folder(tmp_path, monkeypatch, humans, root):
-    """A working folder with the README's input files; collections come from the session's data root."""
+    """A working folder with the pages' input files; collections come from the session's data root."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("OPNET_DATA_DIR", str(root))
     i = int(humans.indices("test")[0])
@@ -79,3 +80,27 @@ def test_command_lines_parse(path):
         words = shlex.split(line, comments=True)
         if words[:3] == ["python", "-m", "opnet"] and "..." not in words:
             parser.parse_args(words[3:])  # SystemExit on an unknown flag or value
+
+
+def _table(text: str, start: str, end: str) -> dict[str, list[str]]:
+    """The Markdown table between the comment markers ``start`` and ``end`` of ``text``: first cell → the others."""
+    part = text[text.index(f"<!-- {start} -->") : text.index(f"<!-- {end} -->")]
+    rows = [line.strip("|").split("|") for line in part.splitlines() if line.startswith("| ")]
+    return {cells[0].strip(): [c.strip().replace("*", "") for c in cells[1:]] for cells in rows[1:]}
+
+
+def test_the_readme_is_short_and_its_table1_is_the_results_page_one():
+    """The README stays a front door (at most 10 KB), and its headline Table 1 shows the numbers of the results
+    page's Table 1 (the mean of each cell, same columns), so that the two cannot drift apart."""
+    readme = (ROOT / "README.md").read_text()
+    assert len(readme.encode()) <= 10_000
+    assert "../shared" not in readme  # a path outside the repository, that a user does not have
+    for page in (ROOT / "docs").glob("*.md"):  # the docs hold their own text: none depends on the README
+        assert "../README.md" not in page.read_text(), page.name
+    head = _table(readme, "headline-table1", "headline-table1-end")
+    full = _table((ROOT / "docs" / "results.md").read_text(), "table1", "table1-end")
+    # the results page's columns: test d_R (median) | d_V | d_E | subset d_R | unseen d_R (median) | d_V | d_E | paper
+    assert head and set(head) <= set(full)
+    for method, cells in head.items():
+        row = full[method]
+        assert cells == [row[0].split(" (")[0], row[1], row[2], row[4].split(" (")[0], row[7]], method

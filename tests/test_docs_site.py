@@ -41,7 +41,6 @@ def test_a_broken_reference_fails_the_build(tmp_path):
     """A copy of docs/ with one more page naming a function that does not exist: the build fails on it."""
     source = tmp_path / "docs"
     shutil.copytree(ROOT / "docs", source)  # follows docs/tutorials' links: real copies of the notebooks
-    shutil.copy(ROOT / "README.md", tmp_path / "README.md")  # the pages include parts of it
     (source / "broken.md").write_text(
         "---\norphan: true\n---\n\n# Broken\n\nSee {func}`opnet.no_such_function` and {func}`opnet.eigenbasis`.\n"
     )

@@ -1,10 +1,12 @@
 """Evaluation (methods × metrics × test sets) and the reproduction pipeline."""
 
+import pytest
+
+pytest.importorskip("torch")  # the net extra: skipped by a core-only install
+
 import json
 
 import numpy as np
-import pytest
-from test_train import tiny_collection
 
 import opnet
 from opnet import evaluate, reproduce, train
@@ -12,7 +14,7 @@ from opnet.data import toy
 
 
 @pytest.fixture(scope="module")
-def coll():
+def coll(tiny_collection):
     return tiny_collection()
 
 
@@ -87,7 +89,8 @@ def test_operatornet_method_decodes_its_channels(coll):
     np.testing.assert_array_equal(m.reconstruct(idx), expected)
 
 
-def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch):
+@pytest.mark.slow
+def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, tiny_collection):
     tiny = tiny_collection("humans")
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: tiny)
     budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, refine_steps=5, refine_shapes=3)
@@ -204,7 +207,7 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatc
     assert "OperatorNet (mult.) + refinement" not in {r["method"] for r in again if r["table"] == "analogy"}
 
 
-def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypatch):
+def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypatch, tiny_collection):
     """Table 1's Comp networks train on operators through computed maps; test shapes on 2k and 5k meshes are decoded
     by them and by Table 1's, beside the exact 1k operators of the same shapes."""
     few = humans.subset(np.concatenate([humans.indices(s)[::8] for s in opnet.data.SPLITS]))

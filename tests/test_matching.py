@@ -189,6 +189,7 @@ def test_operators_through_a_list_of_maps_equal_one_at_a_time(small_shapes):
         np.testing.assert_array_equal(D, opnet.matching.operators_through_map(sm))
 
 
+@pytest.mark.slow
 def test_closest_points_on_faces_matches_brute_force(small_shapes):
     sphere, _ = small_shapes
     rng = np.random.default_rng(0)

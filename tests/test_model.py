@@ -1,7 +1,10 @@
 """OperatorNet and its rigid-motion-invariant loss (eq. 9)."""
 
-import numpy as np
 import pytest
+
+pytest.importorskip("torch")  # the net extra: skipped by a core-only install
+
+import numpy as np
 import torch
 from scipy.spatial.transform import Rotation
 

@@ -1,5 +1,9 @@
 """Operator heat maps: the constant mode's −1 does not set the colour range."""
 
+import pytest
+
+pytest.importorskip("matplotlib")  # the viz extra: skipped by a core-only install
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -23,9 +27,6 @@ def test_the_colour_range_skips_the_constant_mode_and_says_so():
 
 # ---- collection figures: what each helper draws, on toy capsules (no body model) ----
 
-import pytest  # noqa: E402
-from test_collections import toy_collection  # noqa: E402
-
 from opnet.plotting import (  # noqa: E402
     SPLIT_COLOURS,
     plot_error_histograms,
@@ -36,7 +37,7 @@ from opnet.plotting import (  # noqa: E402
 
 
 @pytest.fixture(scope="module")
-def toy():
+def toy(toy_collection):
     """36 capsules: 4 subjects × 3 motions ("group": bend, bulge, both) × 3 frames, with per-subject parameters."""
     coll = toy_collection()
     subject = np.array([int(s[-2:]) for s in coll.subject])

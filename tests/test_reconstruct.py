@@ -1,7 +1,10 @@
 """Reconstruction by operator matching (opnet.reconstruct): the geometric baseline and refinement."""
 
-import numpy as np
 import pytest
+
+pytest.importorskip("torch")  # the net extra: skipped by a core-only install
+
+import numpy as np
 import torch
 from tqdm.auto import tqdm
 

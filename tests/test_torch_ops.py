@@ -1,7 +1,10 @@
 """Differentiable shape differences (opnet.torch_ops) against the numpy fast path and finite differences."""
 
-import numpy as np
 import pytest
+
+pytest.importorskip("torch")  # the net extra: skipped by a core-only install
+
+import numpy as np
 import torch
 import trimesh
 from scipy.spatial.transform import Rotation

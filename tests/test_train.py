@@ -1,5 +1,9 @@
 """Training: fit, checkpoints, exact resume (also after SIGKILL), mismatch errors, NaN stop, CLI, DDP."""
 
+import pytest
+
+pytest.importorskip("torch")  # the net extra: skipped by a core-only install
+
 import json
 import os
 import signal
@@ -8,31 +12,17 @@ import sys
 import time
 
 import numpy as np
-import pytest
 import torch
 
 import opnet
 from opnet import train
-from opnet.data import save_collection, toy
-from opnet.data.build import assemble
+from opnet.data import save_collection
 
 FAST = dict(hidden=64, batch_size=8, lr=1e-3, progress=False)
 
 
-def tiny_collection(name="tiny", n=40, seed=0):
-    """``n`` bent and bulged capsules (430 vertices, k = 20) with train / val / test / test_subjects splits."""
-    rng = np.random.default_rng(seed)
-    base = toy.capsule("quick")
-    angles, amounts = rng.uniform(-1.2, 1.2, n), rng.uniform(-0.25, 0.3, n)
-    V = np.stack([toy.bend(toy.bulge(base.vertices, b), a) for a, b in zip(angles, amounts)])
-    split = np.array(["train"] * (n - 12) + ["val"] * 4 + ["test"] * 4 + ["test_subjects"] * 4)
-    sub = np.array([f"s{i // 4}" for i in range(n)])
-    meta = dict(name=name, preset="tiny", resolution="430", seed=seed, generator_version="test")
-    return assemble(V, base.faces, base.vertices, split, sub, sub, {"angle": angles}, meta, k=20, progress=False)
-
-
 @pytest.fixture(scope="module")
-def coll():
+def coll(tiny_collection):
     return tiny_collection()
 
 
@@ -94,6 +84,7 @@ train.fit(coll, epochs=int(sys.argv[3]), run_dir=sys.argv[2], hidden=64, batch_s
 """
 
 
+@pytest.mark.slow
 def test_a_run_killed_with_sigkill_resumes_to_the_uninterrupted_result(coll, tmp_path):
     manifest = save_collection(coll, tmp_path / "data" / "tiny")
     epochs = 150
@@ -115,7 +106,7 @@ def test_a_run_killed_with_sigkill_resumes_to_the_uninterrupted_result(coll, tmp
     assert all(torch.equal(a, b) for a, b in zip(_weights(ref).values(), _weights(resumed).values()))
 
 
-def test_mismatched_runs_and_checkpoints_are_refused(coll, tmp_path):
+def test_mismatched_runs_and_checkpoints_are_refused(coll, tmp_path, tiny_collection):
     train.fit(coll, epochs=1, run_dir=tmp_path, **FAST)
     with pytest.raises(
         train.CheckpointError,
@@ -183,7 +174,7 @@ def test_nan_loss_stops_with_the_epoch_and_last_good_checkpoint(coll, tmp_path, 
     assert train.read_history(tmp_path)[-1]["epoch"] == 2
 
 
-def test_bad_arguments(coll, tmp_path):
+def test_bad_arguments(coll, tmp_path, tiny_collection):
     with pytest.raises(ValueError, match="unknown channel 'volume'.*with_kinds"):
         train.fit(coll, channels="area,volume", epochs=1)
     with pytest.raises(ValueError, match="epochs must be a positive integer"):
@@ -291,11 +282,8 @@ def test_runs_saved_before_the_variant_options_still_resume(coll, tmp_path):
     assert [h["epoch"] for h in hist] == [1, 2, 3]
 
 
-def _cli(*args, env=None, **kw):
-    return subprocess.run([sys.executable, "-m", "opnet", *args], capture_output=True, text=True, env=env, **kw)
-
-
-def test_cli_help_explains_every_flag():
+@pytest.mark.slow
+def test_cli_help_explains_every_flag(cli):
     from opnet.__main__ import _parser
 
     subcommands = _parser()._subparsers._group_actions[0].choices
@@ -303,14 +291,15 @@ def test_cli_help_explains_every_flag():
     for name, sub in subcommands.items():
         for action in sub._actions:
             assert action.help, (name, action.option_strings)
-        out = _cli(name, "--help")
+        out = cli(name, "--help")
         assert out.returncode == 0 and "--device" in out.stdout
 
 
-def test_cli_train_and_evaluate_on_a_saved_collection(coll, tmp_path):
+@pytest.mark.slow
+def test_cli_train_and_evaluate_on_a_saved_collection(coll, tmp_path, cli):
     manifest = save_collection(coll, tmp_path / "data" / "tiny")
     run = tmp_path / "run"
-    out = _cli(
+    out = cli(
         "train",
         "--collection",
         str(manifest),
@@ -327,23 +316,24 @@ def test_cli_train_and_evaluate_on_a_saved_collection(coll, tmp_path):
     )
     assert out.returncode == 0, out.stderr
     assert "best epoch" in out.stdout and train.load_model(run).channels == ("area", "extrinsic")
-    out = _cli("evaluate", "--run-dir", str(run), "--collection", str(manifest), "--json", str(tmp_path / "e.json"))
+    out = cli("evaluate", "--run-dir", str(run), "--collection", str(manifest), "--json", str(tmp_path / "e.json"))
     assert out.returncode == 0, out.stderr
     rows = json.loads((tmp_path / "e.json").read_text())
     assert {r["method"] for r in rows} == {"OperatorNet (A+E)", "Nearest neighbour (A+E)", "Base shape"}
-    bad = _cli("train", "--collection", "animals", "--run-dir", str(run))
+    bad = cli("train", "--collection", "animals", "--run-dir", str(run))
     assert bad.returncode == 2 and "--collection must be" in bad.stderr
-    bad = _cli("train", "--epochs", "0", "--run-dir", str(run))
+    bad = cli("train", "--epochs", "0", "--run-dir", str(run))
     assert bad.returncode == 2 and "expected a positive integer" in bad.stderr
-    bad = _cli("evaluate", "--run-dir", str(tmp_path / "nothing"))
+    bad = cli("evaluate", "--run-dir", str(tmp_path / "nothing"))
     assert bad.returncode != 0 and "no checkpoint at" in bad.stderr and "python -m opnet train" in bad.stderr
 
 
-def test_ddp_with_two_processes_matches_one_process(coll, tmp_path):
+@pytest.mark.slow
+def test_ddp_with_two_processes_matches_one_process(coll, tmp_path, cli):
     """torchrun --nproc_per_node 2 (gloo) gives the single-process result with the same global batch."""
     manifest = save_collection(coll, tmp_path / "data" / "tiny")
     common = ["--collection", str(manifest), "--epochs", "3", "--hidden", "32", "--batch-size", "7"]
-    single = _cli("train", *common, "--run-dir", str(tmp_path / "one"))
+    single = cli("train", *common, "--run-dir", str(tmp_path / "one"))
     assert single.returncode == 0, single.stderr
     env = dict(os.environ, OMP_NUM_THREADS="1")
     ddp = subprocess.run(

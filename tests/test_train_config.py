@@ -1,10 +1,12 @@
 """TrainConfig: fit's hyper-parameters as a checked dataclass, and the `python -m opnet train` options generated
 from its fields."""
 
+import pytest
+
+pytest.importorskip("torch")  # the net extra: skipped by a core-only install
+
 import dataclasses
 import inspect
-
-import pytest
 
 from opnet import train
 from opnet.__main__ import _parser, main
@@ -39,9 +41,7 @@ def _parse(*words):
 
 
 @pytest.fixture(scope="module")
-def coll():
-    from test_train import tiny_collection
-
+def coll(tiny_collection):
     return tiny_collection()
 
 

@@ -118,8 +118,8 @@ def upgrade_rows(rows: list[dict]) -> list[dict]:
     """``rows`` with the structured fields filled in where an older ``results.json`` lacks them.
 
     A row without ``run`` and ``baseline`` (written before rows had them) gets the fields of the method it is named
-    for (:func:`_legacy_fields`, an exact lookup); rows that have them, and names that are not in the list, are
-    returned as they are (the latter still tell themselves apart by :func:`row_key`).
+    for (an exact lookup in the fixed list of names older reproductions wrote); rows that have them, and names
+    that are not in the list, are returned as they are (the latter still tell themselves apart by :func:`row_key`).
     """
     legacy = _legacy_fields()
     return [{**legacy.get(r.get("method"), {}), **r} if "run" not in r and "baseline" not in r else r for r in rows]

@@ -112,7 +112,7 @@ def fit(
         A progress bar over epochs with the train loss, the val ``d_R`` (×10⁻⁴) and the time left (default: on).
     hidden, subtract_identity : see :class:`opnet.OperatorNet`. The network sees ``D − I`` by default.
     variant : ``"paper"`` (the paper's architecture) or ``"ours"`` (:data:`opnet.model.VARIANTS`: standardised
-        inputs, a displacement from the base, and ``schedule="onecycle"``); the README's variant section.
+        inputs, a displacement from the base, and ``schedule="onecycle"``); the variant section of ``docs/results.md``.
     schedule : the learning rate over the run: ``"constant"`` (the paper's; default for ``"paper"``) or
         ``"onecycle"`` (default for ``"ours"``): a cosine warm-up from ``lr/25`` to ``lr`` over the first 5 % of
         the steps, then a cosine decay towards ``lr/2.5e5`` at the end of the run (as

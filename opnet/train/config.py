@@ -152,7 +152,7 @@ class TrainConfig:
     variant: str = _option(
         "paper",
         "paper: the paper's network; ours: standardised inputs, a displacement from the base and a "
-        "one-cycle learning rate (README, 'our variant')",
+        "one-cycle learning rate (docs/results.md, 'Our variant')",
         choices=tuple(VARIANTS),
     )
     schedule: str | None = _option(
