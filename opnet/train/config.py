@@ -93,6 +93,16 @@ def resolve_device(device="auto") -> torch.device:
     return device
 
 
+_VARIANT_HELP = (
+    "paper: the paper's network; ours: standardised inputs, a displacement from the base and a one-cycle learning "
+    "rate (docs/results.md, 'Our variant')"
+)
+_ARCHITECTURE_HELP = (
+    "operatornet (default), or pointnet: the PointNet autoencoder baseline, which reads the coordinates (same "
+    "decoder, loss and checkpoints; --channels/--variant do not apply)"
+)
+
+
 def _option(default, help: str, *, flag: str | None = None, type=None, choices=None, cli: bool = True):
     """A field of :class:`TrainConfig` with its command-line option described in its metadata."""
     return field(default=default, metadata=dict(help=help, flag=flag, type=type, choices=choices, cli=cli))
@@ -149,23 +159,13 @@ class TrainConfig:
     seed: int = _option(0, "initialisation and shuffling seed (0)", type=int)
     hidden: int = _option(1024, "width of the two hidden dense layers (1024)", type=positive_int)
     subtract_identity: bool = _option(True, "feed the network D instead of D - I (the default subtracts the identity)")
-    variant: str = _option(
-        "paper",
-        "paper: the paper's network; ours: standardised inputs, a displacement from the base and a "
-        "one-cycle learning rate (docs/results.md, 'Our variant')",
-        choices=tuple(VARIANTS),
-    )
+    variant: str = _option("paper", _VARIANT_HELP, choices=tuple(VARIANTS))
     schedule: str | None = _option(
         None, "learning rate over the run (default: constant for paper, onecycle for ours)", choices=SCHEDULES
     )
     standardize: bool | None = _option(None, "override the variant's input standardisation", cli=False)
     residual: bool | None = _option(None, "override the variant's displacement from the base", cli=False)
-    architecture: str = _option(
-        "operatornet",
-        "operatornet (default), or pointnet: the PointNet autoencoder baseline, which reads the "
-        "coordinates (same decoder, loss and checkpoints; --channels/--variant do not apply)",
-        choices=tuple(ARCHITECTURES),
-    )
+    architecture: str = _option("operatornet", _ARCHITECTURE_HELP, choices=tuple(ARCHITECTURES))
     n_points: int | None = _option(
         None, "pointnet: vertices the encoder reads (256)", flag="--points", type=positive_int
     )
