@@ -150,3 +150,14 @@ def test_one_function_bases_are_handled():
     np.testing.assert_array_equal(opnet.interpolate(zero, zero, 0.5), zero)
     with pytest.raises(ValueError, match="zero"):
         opnet.log_difference(zero)
+
+
+def test_analogy_is_the_papers_product_in_the_papers_order():
+    """Section 7: D_X = D_C D_A⁺ D_B. On operators that do not commute, the other order D_B D_A⁺ D_C is another
+    operator, so a swapped product fails here (the identities above hold for both orders)."""
+    rng = np.random.default_rng(3)
+    DA, DB, DC = (M @ M.T + np.eye(6) for M in rng.normal(size=(3, 6, 6)))  # symmetric positive definite
+    paper = DC @ np.linalg.inv(DA) @ DB
+    swapped = DB @ np.linalg.inv(DA) @ DC
+    assert np.abs(paper - swapped).max() > 0.1 * np.abs(paper).max()  # the orders differ on these
+    np.testing.assert_allclose(opnet.analogy(DA, DB, DC), paper, rtol=1e-10, atol=1e-10 * np.abs(paper).max())
