@@ -40,6 +40,9 @@ nb_execution_mode = "off"  # the committed notebooks are executed (quick preset)
 nb_ipywidgets_js = {}  # no require.js / widget manager from a CDN: widget outputs fall back to their text or image
 nb_mime_priority_overrides = [("html", "application/vnd.jupyter.widget-view+json", None)]
 nb_merge_streams = True
+# a notebook's `display(Markdown(...))` outputs are parsed as MyST (the pages' own syntax, tables included), not as
+# CommonMark, which has no tables and showed them as one paragraph of `| ... |` text
+nb_render_markdown_format = "myst"
 
 # -- API reference (autodoc + autosummary + numpydoc) ------------------------------------------------------------
 autodoc_default_options = {"members": True, "undoc-members": True, "show-inheritance": True}

@@ -5,6 +5,7 @@ docstrings, must resolve) into a temporary folder. The notebooks are rendered fr
 executed, so a build takes about 15 s on 2 cores.
 """
 
+import json
 import re
 import shutil
 import subprocess
@@ -33,6 +34,15 @@ def test_site_builds_with_every_reference_resolved_and_nothing_remote(tmp_path):
     for notebook in sorted((ROOT / "notebooks").glob("0*.ipynb")):
         page = (out / "tutorials" / f"{notebook.stem}.html").read_text()
         assert "<img" in page, f"{notebook.name}: no figure rendered"
+        tables = [  # the Markdown tables the notebook displays (Table 1, the ablation, the applications' tables)
+            text
+            for cell in json.loads(notebook.read_text())["cells"]
+            for output in cell.get("outputs", [])
+            if "|---" in (text := "".join(output.get("data", {}).get("text/markdown", "")))
+        ]
+        if tables:  # rendered as tables, not as a paragraph of `| ... |` text
+            raw = re.search(r"<p>\|[^<]*\|---", page)  # a table left as a paragraph of its source text
+            assert page.count("<table") >= len(tables) and raw is None, f"{notebook.name}: a table shown as text"
     for page in out.rglob("*.html"):  # offline: no script, stylesheet, font or picture fetched at view time
         assert not REMOTE_ASSET.search(page.read_text()), f"{page.relative_to(out)} loads a remote asset"
 
