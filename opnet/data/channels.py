@@ -138,15 +138,15 @@ def compute_operators(
     bar over the shapes.
     """
     vertices = np.asarray(vertices)
-    k0_pinv = base_pinvs(basis, [ip])
+    k0_pinvs = base_pinvs(basis, [ip])  # once for all the shapes
     if type(ip).project_batch is not InnerProduct.project_batch:
         out = np.empty((len(vertices), basis.k, basis.k), np.float32)
         starts = range(0, len(vertices), 256)
         for s in tqdm(starts, desc=f"channel {ip.name}", unit="batch", disable=_hidden(progress, len(starts))):
             chunk = vertices[s : s + 256].astype(np.float64)
-            out[s : s + 256] = fast_path(basis, chunk, [ip], batch_size=64, k0_pinv=k0_pinv)[:, 0]
+            out[s : s + 256] = fast_path(basis, chunk, [ip], batch_size=64, k0_pinv=k0_pinvs)[:, 0]
         return out
-    k0_pinv = k0_pinv[0]
+    k0_pinv = k0_pinvs[0]
     chunks = [vertices[s : s + _CHUNK] for s in range(0, len(vertices), _CHUNK)]
     bar = tqdm(total=len(vertices), desc=f"channel {ip.name}", unit="shape", disable=_hidden(progress, len(chunks)))
     parts = []
