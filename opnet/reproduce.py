@@ -263,11 +263,11 @@ def reproduce(
     nets, histories, devices = table1_networks(
         coll, out, budget, pointnet=applications, device=device, progress=progress, bar=runs
     )
-    fields = _declared_fields(budget)
+    specs = _declared_specs(budget)
     methods = [operatornet_method(nets[name], coll, name) for name in (*TABLE1, *OURS)]
     methods += [pointnet_method(nets[POINTNET], coll, POINTNET)] if applications else []
     for m in methods:
-        m.info = dict(table="table1", **fields[m.name], **devices[m.name])
+        m.info = dict(table="table1", **specs[m.name].fields(), **devices[m.name])
     if maps:
         comp, comp_nets, comp_histories, comp_devices = comp_networks(
             coll, out, budget, device=device, bar=runs, progress=progress, data_root=data_root
@@ -276,7 +276,7 @@ def reproduce(
         histories.update(comp_histories)
         comp_methods = [operatornet_method(net, comp, name) for name, net in comp_nets.items()]
         for m in comp_methods:
-            m.info = dict(table="table1", **fields[m.name], **comp_devices[m.name])
+            m.info = dict(table="table1", **specs[m.name].fields(), **comp_devices[m.name])
     baselines = [nearest_neighbour_method(coll, KINDS), base_shape_method(coll)]
     tags = [dict(baseline="nearest_neighbour"), dict(baseline="base_shape")]
     matching = []
@@ -286,7 +286,7 @@ def reproduce(
         tags.append(dict(baseline="geometric"))
         refined = [m for m in methods if m.channels == KINDS]
         matching += [refined_method(m, coll, **options) for m in refined]
-        tags += [_refined_fields(fields[m.name]) for m in refined]
+        tags += [specs[m.name].refined_fields() for m in refined]
     for m, tag in zip(baselines + matching, tags, strict=True):
         m.info = dict(table="table1", **tag, epochs=None, train_seconds=None, device=str(device))
     rows = evaluate(coll, methods + baselines, TEST_SETS, extra=info)
@@ -331,7 +331,7 @@ def reproduce(
         for s in ablation_specs(budget):
             net, _, run_info = _train(coll, out, s, device=device, progress=progress, bar=runs)
             m = operatornet_method(net, coll, s.label)
-            m.info = dict(table="ablation", **_run_fields(s), **run_info)
+            m.info = dict(table="ablation", **s.fields(), **run_info)
             rows += evaluate(coll, [m], ("test",), extra=info)
         write_results(out, rows, context, time.perf_counter() - t_start)
         if figures:
@@ -366,23 +366,11 @@ def spec(table: str, budget: Budget, channels=KINDS, depth: int = 1, variant: st
     )
 
 
-def _run_fields(spec) -> dict:
-    """The structured fields of a declared run's rows: :meth:`RunSpec.fields` (``run``, ``architecture``,
-    ``variant``, ``channels``, ``depth``) and its ``group``.
+def _declared_specs(budget: Budget) -> dict:
+    """Name → declared run (:class:`opnet.experiments.RunSpec`) of Table 1's networks (:func:`table1_specs`,
+    :func:`comp_specs`).
     """
-    return {**spec.fields(), "group": spec.group}
-
-
-def _refined_fields(fields: dict) -> dict:
-    """The fields of a network's output refined by :func:`opnet.reconstruct`: the network's run fields but its
-    channels (the refinement's are the rows' own), and ``refined``.
-    """
-    return {**{k: v for k, v in fields.items() if k != "channels"}, "refined": True}
-
-
-def _declared_fields(budget: Budget) -> dict:
-    """Name → :func:`_run_fields` of Table 1's declared runs (:func:`table1_specs`, :func:`comp_specs`)."""
-    return {s.name: _run_fields(s) for s in (*table1_specs(budget), *comp_specs(budget))}
+    return {s.name: s for s in (*table1_specs(budget), *comp_specs(budget))}
 
 
 def _train(coll, out, spec, *, device, progress, bar=None):
@@ -482,12 +470,13 @@ def discretisation_rows(
             encodings[res, maps] = comp.subset(idx)
         else:
             encodings[res, maps] = mapped_collection(coll, res, maps, indices=idx, root=data_root, progress=progress)
-    rows, fields = [], _declared_fields(budget)
+    rows, specs = [], _declared_specs(budget)
     for (res, maps), c in encodings.items():
         error = float(np.mean(c.params["map_error"])) if "map_error" in c.params else 0.0
         methods = [operatornet_method(net, c, name) for name, net in nets.items()]
         for m in methods:
-            m.info = dict(table="discretisation", **fields.get(m.name, {}), resolution=res, maps=maps, map_error=error)
+            run = specs[m.name].fields() if m.name in specs else {}
+            m.info = dict(table="discretisation", **run, resolution=res, maps=maps, map_error=error)
         rows += evaluate(c, methods, ("test",), extra=extra)
     if out is not None:
         shown = {name: nets[name] for name in ("OperatorNet (Int+Ext)", next(iter(COMP))) if name in nets}
@@ -539,13 +528,13 @@ def application_methods(coll, nets: dict, budget: Budget, *, refine: bool = True
     """
     from . import apps
 
-    fields = _declared_fields(budget)
+    specs = _declared_specs(budget)
     paper_name, ours_name = "OperatorNet (Int+Ext)", next(iter(OURS))
     paper, ours = nets[paper_name], nets[ours_name]
     methods = [
-        (apps.operatornet_algebra(paper, coll), fields[paper_name]),
-        (apps.operatornet_algebra(paper, coll, scheme="linear"), fields[paper_name]),
-        (apps.operatornet_algebra(ours, coll, name="OperatorNet ours (mult.)"), fields[ours_name]),
+        (apps.operatornet_algebra(paper, coll), specs[paper_name].fields()),
+        (apps.operatornet_algebra(paper, coll, scheme="linear"), specs[paper_name].fields()),
+        (apps.operatornet_algebra(ours, coll, name="OperatorNet ours (mult.)"), specs[ours_name].fields()),
     ]
     if refine:
         refined = apps.operatornet_algebra(
@@ -554,9 +543,9 @@ def application_methods(coll, nets: dict, budget: Budget, *, refine: bool = True
             refine=dict(REFINE, steps=budget.refine_steps, device=device),
             max_shapes=budget.apps_refine_shapes,
         )
-        methods.append((refined, _refined_fields(fields[paper_name])))
+        methods.append((refined, specs[paper_name].refined_fields()))
     methods += [
-        (apps.pointnet_algebra(nets[POINTNET], coll), fields[POINTNET]),
+        (apps.pointnet_algebra(nets[POINTNET], coll), specs[POINTNET].fields()),
         (apps.nearest_neighbour_algebra(coll), dict(baseline="nearest_neighbour")),
     ]
     for m, tag in methods:

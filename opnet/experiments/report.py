@@ -100,7 +100,7 @@ def _legacy_fields() -> dict:
         "OperatorNet (Comp)(Ext)": RunSpec(("extrinsic",), group="comp"),
         "PointNet AE": RunSpec(architecture="pointnet", group="table1"),
     }
-    fields = {name: {**spec.fields(), "group": spec.group} for name, spec in runs.items()}
+    fields = {name: spec.fields() for name, spec in runs.items()}
     no_channels = {k: v for k, v in fields["OperatorNet (Int+Ext)"].items() if k != "channels"}
     fields |= {f"{name} + refinement": dict(fields[name], refined=True) for name in list(fields)}
     fields |= {  # the applications' methods (their rows carry ``scheme``)

@@ -127,7 +127,7 @@ class RunSpec:
 
     def fields(self) -> dict:
         """The structured fields every row of this run carries: ``run``, ``architecture``, ``variant``, ``channels``
-        (names), ``depth``.
+        (names), ``depth`` and ``group``.
         """
         return dict(
             run=self.run_name,
@@ -135,4 +135,11 @@ class RunSpec:
             variant=self.variant,
             channels=list(self.channel_names),
             depth=self.depth if self.architecture == "operatornet" else None,
+            group=self.group,
         )
+
+    def refined_fields(self) -> dict:
+        """The fields of this network's output refined by :func:`opnet.reconstruct`: :meth:`fields` without
+        ``channels`` (the refinement's channels are its rows' own) and with ``refined=True``.
+        """
+        return {**{k: v for k, v in self.fields().items() if k != "channels"}, "refined": True}
