@@ -7,6 +7,8 @@
 #   make docs   the documentation site into build/docs/ (warnings are errors, every reference must resolve;
 #               Python >= 3.11, and every extra: the API pages import the modules)
 #   make reproduce PRESET=default   Table 1 + ablation into build/reproduce-$(PRESET) (results.json/md, figures)
+#   make benchmarks  measure again the benchmarks the docs show, into benchmarks/results/*.json (an idle machine;
+#               about 20 min on 2 cores, most of it the PointNet one)
 PYTHON ?= python3
 VENV   ?= .venv
 PRESET ?= quick
@@ -16,7 +18,7 @@ STAMP  := $(VENV)/.installed-stamp
 # machines; an unpinned torch would pull a multi-GB CUDA build. The package accepts any recent torch.
 TORCH  ?= torch==2.13.0
 
-.PHONY: run test test-fast test-core docs reproduce clean
+.PHONY: run test test-fast test-core docs reproduce benchmarks clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -62,6 +64,14 @@ docs: $(STAMP)
 
 reproduce: $(STAMP)
 	$(PY) -m opnet reproduce --preset $(PRESET) --out build/reproduce-$(PRESET)
+
+# One script after the other, never side by side: each times the whole machine.
+benchmarks: $(STAMP)
+	cd benchmarks && ../$(PY) shape_differences.py --json results/shape_differences.json
+	cd benchmarks && ../$(PY) torch_ops.py --json results/torch_ops.json
+	cd benchmarks && ../$(PY) training.py --json results/training.json
+	cd benchmarks && ../$(PY) channels.py --json results/channels.json
+	cd benchmarks && ../$(PY) pointnet.py --preset quick --threads 2 --json results/pointnet.json
 
 clean:
 	rm -rf build $(VENV) .venv-core

@@ -17,11 +17,11 @@ Run::
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 
 import numpy as np
+from shape_differences import run_benchmark
 
 import opnet
 
@@ -53,21 +53,23 @@ def timed(fn):
     return out, time.perf_counter() - t
 
 
-def main() -> None:
+def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--preset", default="default", choices=["quick", "default", "paper"])
     parser.add_argument("--shapes", type=int, default=600, help="shapes of the one-by-one rows (600)")
     parser.add_argument("--json", default=None, help="also write the results to this JSON file")
-    args = parser.parse_args()
-    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
+    return parser.parse_args(argv)
 
+
+def measure(args) -> dict:
+    """Run the benchmark described by ``args`` (:func:`parse_args`); everything it measured, as JSON-able data."""
+    load = os.getloadavg()[0]
     coll = opnet.data.load_collection("humans", args.preset)
     for path in opnet.data.default_root().glob("*.channel.bench_radial_area*"):
         path.unlink()  # a cache of an earlier run of this benchmark
     n, k = coll.vertices.shape[1], coll.base_basis.k
-    print(f"humans/{args.preset}: {len(coll)} shapes, {n} vertices, k = {k}")
-
-    results = {"preset": args.preset, "shapes": len(coll), "vertices": n, "k": k}
+    results = {"date": time.strftime("%Y-%m-%d"), "preset": args.preset, "shapes": len(coll), "vertices": n, "k": k}
+    results |= {"cpu_count": os.cpu_count(), "loadavg_1min_at_start": round(load, 2)}
     _, results["batched_first_s"] = timed(lambda: coll.with_kinds([RadialArea()], progress=False))
     _, results["batched_cached_s"] = timed(lambda: coll.with_kinds([RadialArea()], progress=False))
     few = coll.subset(np.arange(min(args.shapes, len(coll))))
@@ -76,19 +78,41 @@ def main() -> None:
     par, results["one_by_one_processes_s"] = timed(lambda: few.with_kinds([RadialAreaOneByOne()], n_jobs=-1))
     assert np.array_equal(one.operators, par.operators)
     results["one_by_one_shapes"] = len(few)
+    results["loadavg_1min_at_end"] = round(os.getloadavg()[0], 2)
+    return results
 
-    per = results["batched_first_s"] / len(coll) * 1e3
-    print(f"new batched channel, all {len(coll)} shapes: {results['batched_first_s']:.1f} s ({per:.2f} ms/shape)")
-    print(f"  asked again (read from its cache file): {results['batched_cached_s']:.2f} s")
-    print(f"one-by-one channel, {len(few)} shapes: {results['one_by_one_serial_s']:.1f} s in this process, ")
-    print(
-        f"  {results['one_by_one_processes_s']:.1f} s in processes "
-        f"({results['one_by_one_serial_s'] / results['one_by_one_processes_s']:.2f}× faster)"
+
+def report(r: dict) -> str:
+    """The Markdown report of one :func:`measure` result (what the script prints; the docs render the shipped one)."""
+    per = r["batched_first_s"] / r["shapes"] * 1e3
+    few = r["one_by_one_shapes"]
+    speedup = r["one_by_one_serial_s"] / r["one_by_one_processes_s"]
+    return "\n".join(
+        [
+            f"humans at `{r['preset']}`: {r['shapes']} shapes, {r['vertices']} vertices, k = {r['k']}.",
+            "",
+            "| what | shapes | seconds | ms/shape |",
+            "|---|---:|---:|---:|",
+            f"| new batched channel (`project_batch`), first call: computed and cached | {r['shapes']} | "
+            f"{r['batched_first_s']:.1f} | {per:.2f} |",
+            f"| the same, asked again: read from its cache file | {r['shapes']} | {r['batched_cached_s']:.2f} | "
+            f"{r['batched_cached_s'] / r['shapes'] * 1e3:.3f} |",
+            f"| channel with `project` only, shape by shape in this process | {few} | "
+            f"{r['one_by_one_serial_s']:.1f} | {r['one_by_one_serial_s'] / few * 1e3:.1f} |",
+            f"| the same in processes (`n_jobs=-1`) | {few} | {r['one_by_one_processes_s']:.1f} | "
+            f"{r['one_by_one_processes_s'] / few * 1e3:.1f} |",
+            f"| built-in area, batched, on the same shapes | {few} | {r['area_builtin_s']:.2f} | "
+            f"{r['area_builtin_s'] / few * 1e3:.2f} |",
+            "",
+            f"The processes are {speedup:.2f}× as fast as this process alone. Measured {r['date']} on "
+            f"{r['cpu_count']} cores; load average {r['loadavg_1min_at_start']} at the start, "
+            f"{r['loadavg_1min_at_end']} at the end.",
+        ]
     )
-    print(f"built-in area recomputed on the same {len(few)} shapes (batched): {results['area_builtin_s']:.2f} s")
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(results, f, indent=1)
+
+
+def main(argv=None) -> None:
+    run_benchmark("A channel of one's own", parse_args, measure, report, argv)
 
 
 if __name__ == "__main__":

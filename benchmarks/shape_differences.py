@@ -267,6 +267,32 @@ def machine_info(pyfm_version):
     return info
 
 
+def measured(date: str, machine: dict) -> str:
+    """The line saying when and on what a result was measured."""
+    return f"Measured {date}: " + "; ".join(f"{k} {v}" for k, v in machine.items() if v is not None) + "."
+
+
+def save(result: dict, path) -> None:
+    """Write ``result`` as JSON to ``path`` (the ``--json`` option of the benchmarks), creating its folder."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    Path(path).write_text(json.dumps(result, indent=2))
+    print(f"\nJSON written to {path}")
+
+
+def run_benchmark(title: str, parse_args, measure, report, argv=None) -> tuple:
+    """Parse ``argv``, measure, print the title and the report, write ``--json`` when asked: the benchmarks' main.
+
+    Returns ``(args, result)``.
+    """
+    args = parse_args(argv)
+    result = measure(args)
+    print(f"# {title}{' (--quick)' if getattr(args, 'quick', False) else ''}\n")
+    print(report(result))
+    if args.json:
+        save(result, args.json)
+    return args, result
+
+
 def fmt_rate(x):
     return f"{x:,.1f}" if x < 1e4 else f"{x:,.0f}"
 
@@ -292,7 +318,7 @@ def markdown_table(rows):
     return "\n".join(lines)
 
 
-def main(argv=None):
+def parse_args(argv=None):
     ap = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -309,10 +335,13 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0, help="seed of the shape generator (default 0)")
     ap.add_argument("--profile", action="store_true", help="profile the fast path even if the throughput target is met")
     ap.add_argument("--strict", action="store_true", help="exit with status 1 if a target is missed")
-    args = ap.parse_args(argv)
+    return ap.parse_args(argv)
+
+
+def measure(args) -> dict:
+    """Run the benchmark described by ``args`` (:func:`parse_args`); everything it measured, as JSON-able data."""
     n_shapes = args.n_shapes or (100 if args.quick else 500)
     n_explicit = args.n_explicit or (3 if args.quick else 5)
-
     fns, pyfm_note = import_pyfm()
     info = machine_info(fns[2] if fns else None)
     busy = "cpu_busy_at_start" in info and float(info["cpu_busy_at_start"].rstrip(" %")) > 20
@@ -328,15 +357,6 @@ def main(argv=None):
     shapes = make_shapes(base, max(n_shapes, n_explicit), args.seed)
     for v in shapes[:n_explicit]:
         base.with_vertices(v)  # validates (no degenerate faces)
-
-    print(f"# Shape-difference benchmark{' (--quick)' if args.quick else ''}\n")
-    print(
-        f"base: toy.capsule({args.preset!r}), {base.n_vertices} vertices, {base.n_faces} faces; "
-        f"base eigenbasis k = {args.k}; "
-        f"fast path on {n_shapes} shapes (batch_size {args.batch_size}, best of {args.repeats}), "
-        f"explicit formula on {n_explicit} shapes; seed {args.seed}\n",
-        flush=True,
-    )
 
     # 1. fast path
     fast = {"all": time_fast(base_basis, shapes[:n_shapes], KINDS, args.repeats, args.batch_size)}
@@ -376,7 +396,7 @@ def main(argv=None):
         )
 
     # 4. pyFM
-    pyfm = None
+    pyfm = {"skipped": pyfm_note}
     if fns is not None:
         per, D_pyfm = time_pyfm(fns, base_basis, fmaps)
         pyfm = {"s_per_shape": per}
@@ -391,56 +411,25 @@ def main(argv=None):
                 }
             )
         exp_ac = shared + stages["area"] + stages["conformal"]
-        rows.append(
-            {
-                "method": "pyFM `area_SD` + `conformal_SD` (C, Λ given)",
-                "operators": "area + conformal",
-                "s_per_shape": per["both"],
-                "speedup": exp_ac / per["both"],
-                "max_rel_diff": rel_diff(D_pyfm, D_exp[:, :2]),
-            }
-        )
-        rows.append(
-            {
-                "method": "pyFM `area_SD` + `conformal_SD` + full eigh + C",
-                "operators": "area + conformal",
-                "s_per_shape": per["both"] + shared,
-                "speedup": exp_ac / (per["both"] + shared),
-                "max_rel_diff": rel_diff(D_pyfm, D_exp[:, :2]),
-            }
-        )
-
-    print(markdown_table(rows))
-    print()
-    print(
-        "explicit formula per shape: "
-        + ", ".join(f"{k} {fmt_sec(v)}" for k, v in stages.items())
-        + f" (total {fmt_sec(exp_all)})"
-    )
-    print(
-        "max rel. diff = max over the explicitly timed shapes of ‖D − D_explicit‖_F / ‖D_explicit‖_F. "
-        "Explicit per-operator rows = eigendecomposition + fmap + that operator."
-    )
-    if fns is None:
-        print(f"pyFM rows skipped: {pyfm_note}")
-    else:
-        print(
-            "pyFM rows time only pyFM's SD step on the explicit path's functional maps C (n × k) and eigenvalues; "
-            "the last pyFM row adds the measured eigendecomposition + fmap time. pyFM has no extrinsic SD."
-        )
-    print("\nmachine: " + "; ".join(f"{k} {v}" for k, v in info.items() if v is not None))
-
+        for method, seconds in (
+            ("pyFM `area_SD` + `conformal_SD` (C, Λ given)", per["both"]),
+            ("pyFM `area_SD` + `conformal_SD` + full eigh + C", per["both"] + shared),
+        ):
+            rows.append(
+                {
+                    "method": method,
+                    "operators": "area + conformal",
+                    "s_per_shape": seconds,
+                    "speedup": exp_ac / seconds,
+                    "max_rel_diff": rel_diff(D_pyfm, D_exp[:, :2]),
+                }
+            )
     other = monitor.fraction()
     if other is not None:
         info["cpu_used_by_other_processes_during_run"] = f"{100 * other:.0f} %"
-        print(
-            f"CPU time used by other processes during the run: {100 * other:.0f} % of all CPUs"
-            + (" — WARNING: contended, timings are pessimistic" if other > 0.1 else "")
-        )
 
     # targets
-    speedup_all = exp["all"] / fast["all"]
-    rate_all = 1 / fast["all"]
+    speedup_all, rate_all = exp["all"] / fast["all"], 1 / fast["all"]
     targets = {
         "speedup": {"value": speedup_all, "target": TARGET_SPEEDUP, "met": bool(speedup_all >= TARGET_SPEEDUP)},
         "throughput_shapes_per_s": {
@@ -449,58 +438,85 @@ def main(argv=None):
             "met": bool(rate_all >= TARGET_THROUGHPUT),
         },
     }
-    print("\n## Targets\n")
-    print(
-        f"- fast path ≥ {TARGET_SPEEDUP:.0f}× faster than the explicit formula (all three operators): "
-        f"{speedup_all:,.0f}× → {'MET' if targets['speedup']['met'] else 'NOT MET'}"
-    )
-    print(
-        f"- fast path ≥ {TARGET_THROUGHPUT:.0f} shapes/s for all three operators together on "
-        f"{info['cpus_usable']} cores: {rate_all:,.1f} shapes/s → "
-        f"{'MET' if targets['throughput_shapes_per_s']['met'] else 'NOT MET'}"
-    )
-
-    # profiling
     prof = None
     if args.profile or not targets["throughput_shapes_per_s"]["met"]:
         text, prof_rows = profile_fast(base_basis, shapes[:n_shapes], args.batch_size)
         share = {k: fast[k] / sum(fast[q] for q in KINDS) for k in KINDS}
-        print("\n## Fast-path profile\n")
-        print(
-            "time share per operator (from the separate timings): "
-            + ", ".join(f"{k} {100 * v:.0f} %" for k, v in share.items())
-        )
-        print("```\n" + text.strip() + "\n```")
-        prof = {"operator_share": share, "top_functions": prof_rows}
+        prof = {"operator_share": share, "top_functions": prof_rows, "text": text}
+    return {
+        "date": time.strftime("%Y-%m-%d"),
+        "config": {
+            "mesh": f"toy.capsule({args.preset!r})",
+            "n_vertices": base.n_vertices,
+            "n_faces": base.n_faces,
+            "k": args.k,
+            "n_shapes_fast": n_shapes,
+            "n_shapes_explicit": n_explicit,
+            "batch_size": args.batch_size,
+            "repeats": args.repeats,
+            "seed": args.seed,
+            "quick": args.quick,
+        },
+        "machine": info,
+        "rows": [{**r, "shapes_per_s": 1 / r["s_per_shape"]} for r in rows],
+        "explicit_stages_s_per_shape": stages,
+        "explicit_total_s_per_shape": exp_all,
+        "pyfm": pyfm,
+        "targets": targets,
+        "machine_busy_at_start": busy,
+        "loadavg_1min_at_end": round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None,
+        "profile": prof,
+    }
 
-    if args.json:
-        result = {
-            "config": {
-                "mesh": f"toy.capsule({args.preset!r})",
-                "n_vertices": base.n_vertices,
-                "n_faces": base.n_faces,
-                "k": args.k,
-                "n_shapes_fast": n_shapes,
-                "n_shapes_explicit": n_explicit,
-                "batch_size": args.batch_size,
-                "repeats": args.repeats,
-                "seed": args.seed,
-                "quick": args.quick,
-            },
-            "machine": info,
-            "rows": [{**r, "shapes_per_s": 1 / r["s_per_shape"]} for r in rows],
-            "explicit_stages_s_per_shape": stages,
-            "pyfm": pyfm if pyfm is not None else {"skipped": pyfm_note},
-            "targets": targets,
-            "machine_busy_at_start": busy,
-            "loadavg_1min_at_end": round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None,
-            "profile": prof,
-        }
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(result, indent=2))
-        print(f"\nJSON written to {args.json}")
 
-    if args.strict and not all(t["met"] for t in targets.values()):
+def report(result: dict) -> str:
+    """The Markdown report of one :func:`measure` result (what the script prints; the docs render the shipped one)."""
+    c, info, stages = result["config"], result["machine"], result["explicit_stages_s_per_shape"]
+    pyfm = result["pyfm"]
+    out = [
+        f"Base: `{c['mesh']}`, {c['n_vertices']} vertices, {c['n_faces']} faces; base eigenbasis k = {c['k']}; "
+        f"fast path on {c['n_shapes_fast']} shapes (batch_size {c['batch_size']}, best of {c['repeats']}), explicit "
+        f"formula on {c['n_shapes_explicit']} shapes; seed {c['seed']}{' (--quick)' if c['quick'] else ''}.",
+        "",
+        markdown_table(result["rows"]),
+        "",
+        "Explicit formula per shape: "
+        + ", ".join(f"{k} {fmt_sec(v)}" for k, v in stages.items())
+        + f" (total {fmt_sec(result['explicit_total_s_per_shape'])}).",
+        "max rel. diff: the largest over the explicitly timed shapes of ‖D − D_explicit‖_F / ‖D_explicit‖_F; the "
+        "explicit per-operator rows are eigendecomposition + fmap + that operator.",
+        f"pyFM rows skipped: {pyfm['skipped']}"
+        if "skipped" in pyfm
+        else "The \"(C, Λ given)\" pyFM rows time only pyFM's last step on the explicit path's functional maps and "
+        "eigenvalues, so they are not like-for-like; the last pyFM row adds the measured eigendecomposition and map. "
+        "pyFM has no extrinsic shape difference.",
+        "",
+    ]
+    t = result["targets"]
+    speedup, rate = t["speedup"], t["throughput_shapes_per_s"]
+    verdict = {True: "met", False: "**missed**"}
+    out += [
+        f"- Fast path ≥ {speedup['target']:.0f}× faster than the explicit formula (all three operators): "
+        f"{speedup['value']:,.0f}× — {verdict[speedup['met']]}.",
+        f"- Fast path ≥ {rate['target']:.0f} shapes/s for all three operators together on {info['cpus_usable']} "
+        f"cores: {rate['value']:,.1f} shapes/s — {verdict[rate['met']]}.",
+        "",
+        measured(result["date"], info),
+    ]
+    if result["profile"] is not None:
+        share = result["profile"]["operator_share"]
+        out += [
+            "",
+            "Fast-path profile; time share per operator (from the separate timings): "
+            + ", ".join(f"{k} {100 * v:.0f} %" for k, v in share.items()),
+            "```\n" + result["profile"]["text"].strip() + "\n```",
+        ]
+    return "\n".join(out)
+
+
+def main(argv=None):
+    args, result = run_benchmark("Shape-difference benchmark", parse_args, measure, report, argv)
+    if args.strict and not all(t["met"] for t in result["targets"].values()):
         return 1
     return 0
 

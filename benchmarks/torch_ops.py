@@ -21,41 +21,55 @@ Run::
 from __future__ import annotations
 
 import argparse
-import platform
 import sys
+import time
 
 import numpy as np
 import torch
-from shape_differences import OtherLoad, best_of, make_shapes
+from shape_differences import OtherLoad, best_of, machine_info, make_shapes, measured, run_benchmark
 
 import opnet
 from opnet.data import toy
 from opnet.torch_ops import ShapeDifferences
 
 
-def main(argv=None):
+def parse_args(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer shapes and repeats (smoke run)")
     ap.add_argument("--n-shapes", type=int, default=256, help="shapes per timed call (default 256)")
     ap.add_argument("--batch-size", type=int, default=64, help="shapes per torch call (default 64)")
     ap.add_argument("--k", type=int, default=60, help="base eigenbasis size (default 60)")
     ap.add_argument("--repeats", type=int, default=3, help="repeats; the best is kept (default 3)")
-    args = ap.parse_args(argv)
+    ap.add_argument("--json", metavar="PATH", help="also write the results as JSON to PATH")
+    return ap.parse_args(argv)
+
+
+def measure(args) -> dict:
+    """Run the benchmark described by ``args`` (:func:`parse_args`); everything it measured, as JSON-able data."""
     n = 64 if args.quick else args.n_shapes
     repeats = 1 if args.quick else args.repeats
+    info = machine_info(None)
+    info.pop("pyfmaps")
     monitor = OtherLoad()
     base = toy.capsule("default")
     basis = opnet.eigenbasis(base, args.k)
     shapes = make_shapes(base, n, seed=0)
     ref = opnet.shape_differences(basis, shapes, progress=False)
-    rows = []
 
     def numpy_run():
         opnet.shape_differences(basis, shapes, batch_size=args.batch_size, progress=False)
 
     numpy_run()
     t_np = best_of(numpy_run, repeats) / n
-    rows.append(("numpy fast path `shape_differences`", "cpu", "float64", "forward", t_np))
+    rows = [
+        dict(
+            method="numpy fast path `shape_differences`",
+            device="cpu",
+            dtype="float64",
+            mode="forward",
+            s_per_shape=t_np,
+        )
+    ]
     devices = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
     err = None
     for dev in devices:
@@ -76,32 +90,55 @@ def main(argv=None):
                         torch.cuda.synchronize()
 
                 run()
+                name = str(dtype).split(".")[1]
+                seconds = best_of(run, repeats) / n
                 rows.append(
-                    ("torch_ops `ShapeDifferences`", dev, str(dtype).split(".")[1], mode, best_of(run, repeats) / n)
+                    dict(method="torch_ops `ShapeDifferences`", device=dev, dtype=name, mode=mode, s_per_shape=seconds)
                 )
             if dev == "cpu" and dtype == torch.float64:
                 with torch.no_grad():
                     out = module(X).numpy()
                 err = float(np.max(np.linalg.norm(out - ref, axis=(-2, -1)) / np.linalg.norm(ref, axis=(-2, -1))))
-
-    print(f"# Differentiable shape differences{' (--quick)' if args.quick else ''}\n")
-    print(
-        f"toy.capsule('default'): {base.n_vertices} vertices, k = {args.k}, {n} shapes, batch {args.batch_size}, "
-        f"best of {repeats}; all three operators together.\n"
-    )
-    print("| method | device | dtype | pass | shapes/s | ratio to numpy forward |")
-    print("|---|---|---|---|---:|---:|")
-    for name, dev, dt, mode, t in rows:
-        print(f"| {name} | {dev} | {dt} | {mode} | {1 / t:,.0f} | {t_np / t:.2f}× |")
-    print(f"\nlargest relative difference of torch float64 from numpy (‖ΔD‖_F / ‖D‖_F): {err:.1e}")
-    gpu = f"; GPU {torch.cuda.get_device_name()}" if torch.cuda.is_available() else ""
-    print(
-        f"machine: {platform.processor() or platform.machine()}, torch {torch.__version__}, "
-        f"{torch.get_num_threads()} torch threads{gpu}"
-    )
     other = monitor.fraction()
-    if other is not None and other > 0.1:
-        print(f"WARNING: other processes used {100 * other:.0f} % of the CPUs during the run; timings are pessimistic.")
+    if other is not None:
+        info["cpu_used_by_other_processes_during_run"] = f"{100 * other:.0f} %"
+    info |= dict(torch=torch.__version__, torch_threads=torch.get_num_threads())
+    if torch.cuda.is_available():
+        info["gpu"] = torch.cuda.get_device_name()
+    rows = [dict(r, shapes_per_s=1 / r["s_per_shape"], ratio_to_numpy=t_np / r["s_per_shape"]) for r in rows]
+    config = dict(mesh="toy.capsule('default')", n_vertices=base.n_vertices, k=args.k, n_shapes=n)
+    config |= dict(batch_size=args.batch_size, repeats=repeats, quick=args.quick)
+    return dict(date=time.strftime("%Y-%m-%d"), config=config, machine=info, rows=rows, max_rel_diff_float64=err)
+
+
+def report(result: dict) -> str:
+    """The Markdown report of one :func:`measure` result (what the script prints; the docs render the shipped one)."""
+    c = result["config"]
+    out = [
+        f"`{c['mesh']}`: {c['n_vertices']} vertices, k = {c['k']}, {c['n_shapes']} shapes in batches of "
+        f"{c['batch_size']}, best of {c['repeats']}; all three operators together"
+        f"{' (--quick)' if c['quick'] else ''}.",
+        "",
+        "| method | device | dtype | pass | shapes/s | ratio to numpy forward |",
+        "|---|---|---|---|---:|---:|",
+    ]
+    out += [
+        f"| {r['method']} | {r['device']} | {r['dtype']} | {r['mode']} | {r['shapes_per_s']:,.0f} | "
+        f"{r['ratio_to_numpy']:.2f}× |"
+        for r in result["rows"]
+    ]
+    out += [
+        "",
+        "Largest relative difference of the torch float64 operators from numpy's (‖ΔD‖_F / ‖D‖_F): "
+        f"{result['max_rel_diff_float64']:.1e}.",
+        "",
+        measured(result["date"], result["machine"]),
+    ]
+    return "\n".join(out)
+
+
+def main(argv=None):
+    run_benchmark("Differentiable shape differences", parse_args, measure, report, argv)
     return 0
 
 

@@ -24,13 +24,18 @@ sys.path.insert(0, str(ROOT))  # the checkout's opnet, installed or not
 
 import opnet  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent / "_scripts"))
+from generated import write_benchmark_fragments  # noqa: E402
+
+write_benchmark_fragments(Path(__file__).resolve().parent / "_generated" / "benchmarks")
+
 project = "opnet"
 author = "the opnet authors"
 copyright = "2026, the opnet authors"
 version = release = opnet.__version__
 
 extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.autosummary", "numpydoc"]
-exclude_patterns = ["_build", "**/.ipynb_checkpoints"]
+exclude_patterns = ["_build", "_generated", "_scripts", "**/.ipynb_checkpoints"]
 nitpicky = True
 
 # -- pages and notebooks (myst-nb) -------------------------------------------------------------------------------

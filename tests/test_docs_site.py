@@ -18,6 +18,9 @@ if sys.version_info < (3, 11):  # Sphinx 9, myst-nb and the theme need 3.11: the
     pytest.skip("the documentation site needs Python 3.11 or later", allow_module_level=True)
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "docs" / "_scripts"))
+from generated import benchmark_report  # noqa: E402
+
 REMOTE_ASSET = re.compile(r"<(?:script|link|img)\b[^>]*\b(?:src|href)=\"(?:https?:)?//[^\"]+\"")
 
 
@@ -43,6 +46,15 @@ def test_site_builds_with_every_reference_resolved_and_nothing_remote(tmp_path):
         if tables:  # rendered as tables, not as a paragraph of `| ... |` text
             raw = re.search(r"<p>\|[^<]*\|---", page)  # a table left as a paragraph of its source text
             assert page.count("<table") >= len(tables) and raw is None, f"{notebook.name}: a table shown as text"
+    benchmarks = (out / "benchmarks.html").read_text()
+    shipped = sorted((ROOT / "benchmarks" / "results").glob("*.json"))
+    assert shipped and benchmarks.count("<table") == len(shipped)  # one table per shipped measurement
+    for path in shipped:  # each rendered from its file: its table's cells are on the page
+        report = benchmark_report(path.stem)
+        body = report[report.index("|---") :].splitlines()[1:]
+        cells = [c.strip() for line in body if line.startswith("|") for c in line.strip("|").split("|")]
+        missing = [c for c in cells if re.fullmatch(r"[\d,.]+", c) and f">{c}<" not in benchmarks]
+        assert not missing, f"{path.name}: cells not on the benchmarks page: {missing[:5]}"
     for page in out.rglob("*.html"):  # offline: no script, stylesheet, font or picture fetched at view time
         assert not REMOTE_ASSET.search(page.read_text()), f"{page.relative_to(out)} loads a remote asset"
 

@@ -17,8 +17,9 @@ import torch
 import opnet
 from opnet import train
 from opnet.data import save_collection
+from opnet.train import rundir
 
-FAST = dict(hidden=64, batch_size=8, lr=1e-3, progress=False)
+FAST = dict(hidden=64, batch_size=8, lr=1e-3, progress=False, checkpoint_every=0)  # a checkpoint every epoch
 
 
 @pytest.fixture(scope="module")
@@ -79,8 +80,11 @@ def test_resume_gives_the_same_weights_and_history(coll, tmp_path):
 _KILLED_RUN = """
 import sys, opnet
 from opnet import train
+from opnet.train import rundir
 coll = opnet.data.read_collection(sys.argv[1])
-train.fit(coll, epochs=int(sys.argv[3]), run_dir=sys.argv[2], hidden=64, batch_size=8, progress=False)
+train.fit(
+    coll, epochs=int(sys.argv[3]), run_dir=sys.argv[2], hidden=64, batch_size=8, progress=False, checkpoint_every=0
+)
 """
 
 
@@ -172,6 +176,9 @@ def test_nan_loss_stops_with_the_epoch_and_last_good_checkpoint(coll, tmp_path, 
     ):
         train.fit(coll, epochs=5, run_dir=tmp_path, **FAST)
     assert train.read_history(tmp_path)[-1]["epoch"] == 2
+    calls["n"] = 0  # checkpoints every 30 s: none written yet when it diverges, and the message says so
+    with pytest.raises(train.TrainingError, match=r"in epoch 3; the last good checkpoint is none"):
+        train.fit(coll, epochs=5, run_dir=tmp_path / "timed", **dict(FAST, checkpoint_every=30))
 
 
 def test_bad_arguments(coll, tmp_path, tiny_collection):
@@ -236,6 +243,22 @@ def test_variant_ours_standardises_and_decodes_from_the_base(coll, tmp_path):
     # each part alone (benchmarks/variants.py)
     alone, _ = train.fit(coll, epochs=1, standardize=True, **FAST)
     assert alone.standardize and not alone.residual
+
+
+def test_checkpoints_every_few_seconds_keep_the_best_epoch(coll, tmp_path, monkeypatch):
+    """A run checkpointed only at its end (the best weights kept in memory meanwhile) ends as one checkpointed
+    after every epoch: the same history, the same best epoch, the same weights, and one write of each file.
+    """
+    every, hist_every = train.fit(coll, epochs=6, run_dir=tmp_path / "every", **FAST)
+    writes = []
+    real = rundir._save_torch
+    monkeypatch.setattr(rundir, "_save_torch", lambda obj, path: (writes.append(path.name), real(obj, path)))
+    once, hist_once = train.fit(coll, epochs=6, run_dir=tmp_path / "once", **dict(FAST, checkpoint_every=3600))
+    assert writes == ["best.pt", "latest.pt"]
+    assert _same_history(hist_every, hist_once)
+    best = min(hist_every, key=lambda h: h["val_d_R"])["epoch"]
+    assert 1 < best and rundir.read_checkpoint(tmp_path / "once" / "best.pt")["epoch"] == best
+    assert all(torch.equal(a, b) for a, b in zip(_weights(every).values(), _weights(once).values()))
 
 
 def test_onecycle_resume_is_exact(coll, tmp_path):

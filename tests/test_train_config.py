@@ -28,6 +28,7 @@ FLAGS = {  # the train options of the command line, as they were written by hand
     "architecture": "--architecture",
     "n_points": "--points",
     "device": "--device",
+    "checkpoint_every": "--checkpoint-every",
 }
 OTHERS = {"--collection", "--preset", "--resolution", "--data-seed", "--run-dir", "--restart", "--data-root"}
 

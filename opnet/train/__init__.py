@@ -27,7 +27,7 @@ from tqdm.auto import tqdm
 from ..model import rigid_alignment_loss
 from ..shape_difference import CHANNEL_SETS
 from .config import SCHEDULES, TrainConfig, parse_channels, resolve_device
-from .loop import TrainingError, placement, run_epochs
+from .loop import TrainingError, adam, placement, run_epochs
 from .network import build_network, training_data
 from .rundir import (
     RUN_FILES,
@@ -83,6 +83,7 @@ def fit(
     residual: bool | None = None,
     architecture: str = "operatornet",
     n_points: int | None = None,
+    checkpoint_every: float = 30.0,
 ) -> tuple[torch.nn.Module, list[dict]]:
     """Train OperatorNet (or the PointNet autoencoder) on the ``train`` split of ``collection``; returns the best
     network on ``val`` and the history.
@@ -128,6 +129,11 @@ def fit(
     n_points : how many vertices the PointNet encoder reads (spread over the base shape by
         :meth:`~opnet.model.PointNetAutoencoder.choose_points`); default 256 for ``architecture="pointnet"``
         (``benchmarks/pointnet.py`` measures the choice: as accurate as all the vertices, 5× faster).
+    checkpoint_every : seconds between the checkpoints written to ``run_dir`` (``latest.pt`` with ``best.pt``
+        and ``history.json``); the last epoch is always written, and ``0`` writes every epoch. A run killed in
+        between resumes from its last checkpoint and replays the epochs after it to the same result (each epoch's
+        shuffle is a function of ``seed`` and the epoch), so at most this much work is repeated; it is not part
+        of the run's settings.
 
     Returns
     -------
@@ -148,7 +154,7 @@ def fit(
     place = placement(config.device)  # the device, DDP rank and number of processes
     data = training_data(collection, channels, config.pointnet, place.device)
     net = build_network(collection, config, channels, data.train_in).to(place.device)
-    optimizer = torch.optim.Adam(net.parameters(), lr=config.lr)
+    optimizer = adam(net.parameters(), config.lr)
     record = run_config(collection, channels, net, config, place.device, place.world)
 
     run = RunDir(run_dir, place.rank, place.world) if run_dir is not None else None

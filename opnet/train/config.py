@@ -170,6 +170,9 @@ class TrainConfig:
         None, "pointnet: vertices the encoder reads (256)", flag="--points", type=positive_int
     )
     device: str = _option("auto", "auto (CUDA if present), cpu, cuda, cuda:N")
+    checkpoint_every: float = _option(
+        30.0, "seconds between checkpoints of a run directory (30); its last epoch is always written", type=float
+    )
 
     def __post_init__(self):
         """Refuse bad values with the messages of :func:`opnet.train.fit`, in the order it checks them."""
@@ -198,6 +201,11 @@ class TrainConfig:
             raise ValueError(f"schedule must be one of {SCHEDULES}, got {self.schedule!r}.")
         for name in ("epochs", "batch_size", "hidden"):
             check_int(name, getattr(self, name))
+        if not (isinstance(self.checkpoint_every, (int, float)) and self.checkpoint_every >= 0):
+            raise ValueError(
+                f"checkpoint_every must be a number of seconds >= 0 (0: after every epoch), got "
+                f"{self.checkpoint_every!r}."
+            )
         check_int("n_points", self.points)
         check_number("lr", self.lr)
         resolve_device(self.device)

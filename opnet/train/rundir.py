@@ -7,15 +7,17 @@ A run directory holds four files, each written atomically (temporary file + ``os
     SHA-256 fingerprint of its arrays), the network (its ``config()``), the hyper-parameters, and
     the training-code version (``TRAINING_VERSION``), the opnet / torch versions and the device.
 ``latest.pt``
-    the state after the last finished epoch: weights, Adam state, history, best epoch. It is the commit
-    point: a run killed at any moment (even by SIGKILL) resumes from it, and a resumed CPU run ends with the
-    same weights and history as an uninterrupted one (each epoch's shuffling is seeded by ``(seed, epoch)``,
-    and nothing else is random).
+    the state after the last checkpointed epoch (one every ``checkpoint_every`` seconds, 30 by default, and the
+    last epoch): weights, Adam state, history, best epoch. It is the commit point: a run killed at any moment
+    (even by SIGKILL) resumes from it, replaying the epochs after it, and a resumed CPU run ends with the same
+    weights and history as an uninterrupted one (each epoch's shuffling is seeded by ``(seed, epoch)``, and
+    nothing else is random).
 ``best.pt``
-    the weights with the lowest validation ``d_R`` so far (model selection on ``val`` only; ``test`` and
-    ``test_subjects`` are never read here).
+    the weights with the lowest validation ``d_R`` up to ``latest.pt``'s epoch, written with it (model
+    selection on ``val`` only; ``test`` and ``test_subjects`` are never read here).
 ``history.json``
-    one record per epoch: ``epoch``, ``train_loss`` and ``val_d_R`` (eq. 9, length², e.g. m²), ``seconds``.
+    one record per epoch up to ``latest.pt``'s, written with it: ``epoch``, ``train_loss`` and ``val_d_R``
+    (eq. 9, length², e.g. m²), ``seconds``.
 
 Checkpoints hold only tensors, numbers, strings, lists and dicts, and are read with
 ``torch.load(weights_only=True)``: a checkpoint is data, never code. Only rank 0 of a DDP run writes the run
@@ -412,7 +414,7 @@ def model_from_checkpoint(ckpt: dict, path, collection=None, *, channels=None, d
 
 
 # ----------------------------------------------------------------------------------------------------------
-# a run: opened (resumed or replaced), written after each epoch
+# a run: opened (resumed or replaced), checkpointed every `checkpoint_every` seconds and at its end
 
 
 def _check_same_run(saved: dict, wanted: dict, run_dir: Path) -> None:
@@ -469,8 +471,8 @@ class RunState:
 
 
 class RunDir:
-    """The run directory of a call of :func:`opnet.train.fit`: opened once (resumed or replaced), then written
-    after every epoch, by rank 0 only.
+    """The run directory of a call of :func:`opnet.train.fit`: opened once (resumed or replaced), then
+    checkpointed (:meth:`save_epoch`) by rank 0 only.
 
     Parameters
     ----------
@@ -486,6 +488,8 @@ class RunDir:
             raise ValueError(f"run_dir {path} is a file; give a directory path.")
         self.path, self.rank, self.world = path, rank, world
         self.config: dict | None = None
+        self.best_written = 0  # the epoch of the best.pt this process wrote or found (0: none)
+        self.latest_epoch = 0  # the epoch of the latest.pt this process wrote or resumed (0: none)
 
     def open(self, config: dict, collection, channels, *, resume: bool, net, optimizer, device) -> RunState:
         """Resume the run found here into ``net`` and ``optimizer``, or start it afresh.
@@ -539,6 +543,8 @@ class RunDir:
             net.load_state_dict(ckpt["model"])
             optimizer.load_state_dict(ckpt["optimizer"])
             state = RunState(ckpt["history"], ckpt["best_val"], ckpt["best_epoch"], ckpt["epoch"])
+            self.best_written = state.best_epoch  # written with (before) that latest.pt
+            self.latest_epoch = state.start
         elif self.rank == 0:
             for name in RUN_FILES:
                 (run_dir / name).unlink(missing_ok=True)
@@ -549,31 +555,29 @@ class RunDir:
         self.config = config
         return state
 
-    def save_epoch(self, epoch: int, state: RunState, net, optimizer, *, val: float, improved: bool) -> None:
-        """Write the epoch just finished (rank 0 only): ``best.pt`` if it improved, ``history.json``, then
-        ``latest.pt``, the commit point.
+    def save_epoch(self, epoch: int, state: RunState, net, optimizer) -> None:
+        """Write a checkpoint of the epoch just finished (rank 0 only): ``best.pt`` (from ``state.best_weights``)
+        if the best epoch changed since the last one, ``history.json``, then ``latest.pt``, the commit point.
 
         Parameters
         ----------
         epoch : int
             The epoch (from 1).
         state : RunState
-            The run after this epoch.
+            The run after this epoch, with the best epoch's weights.
         net : torch.nn.Module
             The network (not its DDP wrapper).
         optimizer : torch.optim.Optimizer
             Its optimiser.
-        val : float
-            The epoch's validation ``d_R``.
-        improved : bool
-            Whether it is the best so far.
         """
         if self.rank != 0:
             return
         run_dir = self.path
         header = dict(format=CHECKPOINT_FORMAT, version=CHECKPOINT_VERSION, config=self.config)
-        if improved:
-            _save_torch(dict(header, epoch=epoch, model=net.state_dict(), val_d_R=val), run_dir / "best.pt")
+        if state.best_epoch != self.best_written and state.best_weights is not None:
+            best = dict(header, epoch=state.best_epoch, model=state.best_weights, val_d_R=state.best_val)
+            _save_torch(best, run_dir / "best.pt")
+            self.best_written = state.best_epoch
         _save_json(state.history, run_dir / "history.json")
         _save_torch(
             dict(
@@ -587,6 +591,7 @@ class RunDir:
             ),
             run_dir / "latest.pt",
         )
+        self.latest_epoch = epoch
 
     def load_best(self, net, state: RunState, device) -> None:
         """Put the best epoch's weights (``best.pt``, once rank 0 has written it) into ``net``, if there is one."""
