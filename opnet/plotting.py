@@ -17,6 +17,8 @@ __all__ = [
     "plot_operators",
     "plot_reconstructions",
     "plot_mapped_reconstructions",
+    "error_scale",
+    "error_top",
     "plot_history",
     "plot_refinement_curves",
     "plot_ablation",
@@ -88,6 +90,7 @@ def plot_meshes(
     camera="yz",
     zoom=1.0,
     window_size=None,
+    scalar_bar: str | None = None,
 ):
     """A pyvista plotter with one mesh per subplot (call ``.show()`` on it, or ``.screenshot(path)``).
 
@@ -101,6 +104,9 @@ def plot_meshes(
     cmaps, clims : lists, one colormap and one (min, max) or None per mesh, instead of ``cmap`` and ``clim``.
     ncols : subplots per row (default: all in one row).
     camera : str, a pyvista camera position such as ``"yz"`` or ``"xy"``.
+    scalar_bar : str, optional
+        The title (with the unit) of a colour bar, drawn beside the last mesh that has scalars: give the meshes
+        that share its colour map one ``clim`` so that it reads for all of them.
     """
     pv = require("pyvista", "opnet.plotting")
 
@@ -115,9 +121,15 @@ def plot_meshes(
     nrows = -(-len(meshes) // ncols)
     size = window_size or (300 * ncols, 380 * nrows)
     plotter = pv.Plotter(shape=(nrows, ncols), window_size=list(size), border=False, off_screen=True)
+    bar = max((i for i, s in enumerate(scalars) if s is not None), default=None) if scalar_bar else None
     for i, (m, s, t, cmap, clim) in enumerate(zip(meshes, scalars, titles, cmaps, clims)):
         plotter.subplot(i // ncols, i % ncols)
-        kw = dict(smooth_shading=True, show_scalar_bar=False)
+        kw = dict(smooth_shading=True, show_scalar_bar=i == bar)
+        if i == bar:
+            kw["scalar_bar_args"] = dict(
+                title=scalar_bar, color="black", vertical=True, position_x=0.78, position_y=0.15, width=0.1,
+                height=0.6, n_labels=4, fmt="%.0f", title_font_size=12, label_font_size=11,
+            )  # fmt: skip
         if s is None:
             plotter.add_mesh(to_pyvista(m), color="lightsteelblue", **kw)
         else:
@@ -173,8 +185,9 @@ def plot_reconstructions(gt, reconstructions: dict, faces, *, titles=None, clim=
     ----------
     gt : (N, n, 3) ground-truth vertices.
     reconstructions : dict name → (N, n, 3), e.g. ``{"OperatorNet": ..., "NN": ...}``; each is rigidly
-        aligned onto the ground truth and painted with its per-vertex distance to it (length unit of the
-        input; shared colour range ``clim``, default 0 to the largest error shown).
+        aligned onto the ground truth and painted with its per-vertex distance to it (shared colour range
+        ``clim`` in the input's unit, default 0 to :func:`error_top` of the errors shown; painted in mm for
+        shapes in metres, :func:`error_scale`), with a colour bar.
     faces : (m, 3) shared triangles.
     titles : list of N str, optional, a caption per row (e.g. the shape's sequence).
     """
@@ -182,17 +195,17 @@ def plot_reconstructions(gt, reconstructions: dict, faces, *, titles=None, clim=
     aligned, errors = {}, {}
     for name, r in reconstructions.items():
         aligned[name], errors[name] = aligned_errors(r, gt)
-    vmax = max(float(e.max()) for e in errors.values()) if clim is None else None
+    vmax = error_top(errors.values()) if clim is None else None
     clim = clim or (0.0, vmax)
+    factor, bar = error_scale(clim[1])
     meshes, scalars, labels = [], [], []
     for i in range(len(gt)):
         meshes.append((gt[i], faces))
         scalars.append(None)
-        scale = f" (colour: 0 to {1000 * clim[1]:.0f} mm)" if i == 0 and clim[1] < 1 else ""
-        labels.append(f"ground truth{' · ' + titles[i] if titles else ''}{scale}")
+        labels.append(f"ground truth{' · ' + titles[i] if titles else ''}")
         for name in reconstructions:
             meshes.append((aligned[name][i], faces))
-            scalars.append(errors[name][i])
+            scalars.append(factor * errors[name][i])
             labels.append(f"{name}: mean {1000 * errors[name][i].mean():.1f} mm" if clim[1] < 1 else name)
     ncols = 1 + len(reconstructions)
     return plot_meshes(
@@ -200,11 +213,12 @@ def plot_reconstructions(gt, reconstructions: dict, faces, *, titles=None, clim=
         scalars,
         labels,
         cmap="magma_r",
-        clim=clim,
+        clim=(factor * clim[0], factor * clim[1]),
         ncols=ncols,
         camera=camera,
         zoom=zoom,
         window_size=(330 * ncols, 360 * len(gt)),
+        scalar_bar=bar,
     )
 
 
@@ -233,7 +247,8 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
     x, z = base.vertices[:, 0], base.vertices[:, 2]  # +x the body's left, +z up
     painted = np.sign(x) * (1 + (z - z.min()) / np.ptp(z))
     errors = {name: aligned_errors(r, truth) for name, r in reconstructions.items()}
-    top = max(float(e.max()) for _, e in errors.values())
+    top = error_top(e for _, e in errors.values())
+    factor, bar = error_scale(top)
     meshes, scalars, titles, cmaps, clims = [], [], [], [], []
     for i, sm in enumerate(surface_maps):
         meshes += [sm.mesh, base]
@@ -246,11 +261,10 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
         clims += [(-2.0, 2.0), (-2.0, 2.0)]
         for name, (aligned, err) in errors.items():
             meshes.append((aligned[i], base.faces))
-            scalars.append(err[i])
-            scale = f" (0 to {1000 * top:.0f})" if i == 0 else ""
-            titles.append(f"{name}: mean {1000 * err[i].mean():.1f} mm{scale}")
+            scalars.append(factor * err[i])
+            titles.append(f"{name}: mean {1000 * err[i].mean():.1f} mm")
             cmaps.append("magma_r")
-            clims.append((0.0, top))
+            clims.append((0.0, factor * top))
     ncols = 2 + len(reconstructions)
     return plot_meshes(
         meshes,
@@ -262,7 +276,24 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
         camera=camera,
         zoom=zoom,
         window_size=(330 * ncols, 360 * len(surface_maps)),
+        scalar_bar=bar,
     )
+
+
+def error_scale(top: float) -> tuple[float, str]:
+    """How the error renders paint a distance whose colour range ends at ``top``: ``(factor, colour-bar title)``,
+    millimetres for shapes in metres (``top < 1``), else the input's own unit.
+    """
+    return (1000.0, "error (mm)") if top < 1 else (1.0, "error")
+
+
+def error_top(errors) -> float:
+    """The top of the error renders' shared colour range: the 98th percentile of all the per-vertex errors shown
+    (each an array), so that one failed panel does not wash out the others (its worst vertices saturate); 1.0 when
+    there are none.
+    """
+    values = [np.ravel(e) for e in errors]
+    return float(np.percentile(np.concatenate(values), 98)) if values else 1.0
 
 
 def aligned_errors(shapes, truth):
@@ -279,7 +310,8 @@ def plot_interpolations(paths: dict, faces, t, *, truth=None, columns: int = 6, 
 
     ``paths``: name → ``(T, n, 3)`` shapes at parameters ``t`` ``(T,)``. With ``truth`` ``(T, n, 3)`` (the true
     in-between shapes) a first row shows it and every method's shapes are aligned onto it and coloured by their
-    distance to it (shared range ``clim``, default 0 to the largest error shown; metres → mm in the captions).
+    distance to it (shared range ``clim``, default 0 to :func:`error_top` of the errors shown; in mm for shapes in
+    metres, with a colour bar).
     """
     t = np.asarray(t, dtype=np.float64)
     cols = np.unique(np.linspace(0, len(t) - 1, min(columns, len(t))).round().astype(int))
@@ -287,13 +319,14 @@ def plot_interpolations(paths: dict, faces, t, *, truth=None, columns: int = 6, 
     meshes, scalars, titles, errors = [], [], [], {}
     if truth is not None:
         errors = {name: aligned_errors(np.asarray(p)[cols], np.asarray(truth)[cols]) for name, p in paths.items()}
-    vmax = max((float(e.max()) for _, e in errors.values()), default=1.0)
+    vmax = error_top(e for _, e in errors.values())
     clim = clim or (0.0, vmax)
+    factor, bar = error_scale(clim[1])
     for name, p in rows.items():
         for j, c in enumerate(cols):
             if name in errors:
                 meshes.append((errors[name][0][j], faces))
-                scalars.append(errors[name][1][j])
+                scalars.append(factor * errors[name][1][j])
             else:
                 meshes.append((np.asarray(p)[c], faces))
                 scalars.append(None)
@@ -305,11 +338,12 @@ def plot_interpolations(paths: dict, faces, t, *, truth=None, columns: int = 6, 
         scalars,
         titles,
         cmap="magma_r",
-        clim=clim,
+        clim=(factor * clim[0], factor * clim[1]),
         ncols=len(cols),
         camera=camera,
         zoom=zoom,
         window_size=(240 * len(cols), 300 * len(rows)),
+        scalar_bar=bar if errors else None,
     )
 
 
@@ -321,8 +355,9 @@ def plot_analogies(A, B, C, results: dict, faces, *, truth=None, clim=None, came
     """
     A, B, C = (np.asarray(x, np.float64) for x in (A, B, C))
     errors = {name: aligned_errors(x, truth) for name, x in results.items()} if truth is not None else {}
-    vmax = max((float(e.max()) for _, e in errors.values()), default=1.0)
+    vmax = error_top(e for _, e in errors.values())
     clim = clim or (0.0, vmax)
+    factor, bar = error_scale(clim[1])
     meshes, scalars, titles = [], [], []
     for i in range(len(A)):
         shown = [("A", A[i], None), ("B", B[i], None), ("C", C[i], None)]
@@ -333,7 +368,7 @@ def plot_analogies(A, B, C, results: dict, faces, *, truth=None, clim=None, came
                     (
                         f"{name}: {1000 * errors[name][1][i].mean():.1f} mm" if clim[1] < 1 else name,
                         errors[name][0][i],
-                        errors[name][1][i],
+                        factor * errors[name][1][i],
                     )
                 )
             else:
@@ -348,11 +383,12 @@ def plot_analogies(A, B, C, results: dict, faces, *, truth=None, clim=None, came
         scalars,
         titles,
         cmap="magma_r",
-        clim=clim,
+        clim=(factor * clim[0], factor * clim[1]),
         ncols=ncols,
         camera=camera,
         zoom=zoom,
         window_size=(240 * ncols, 300 * len(A)),
+        scalar_bar=bar if errors else None,
     )
 
 

@@ -5,7 +5,8 @@ in its own run directory under ``OUT/runs/`` (a second call skips finished runs,
 continues from its last epoch), evaluates them beside the nearest-neighbour and base-shape baselines,
 and writes
 
-- ``OUT/results.json``: a list of rows ``{"table", "method", "channels", "depth", "split", "d_R", "d_V",
+- ``OUT/results.json``: ``{"format", "version", "context", "rows"}`` (:func:`read_results` reads it): the
+  machine, data and budget, and the rows ``{"table", "method", "channels", "depth", "split", "d_R", "d_V",
   "d_E"`` (means; ``*_median`` too), ``"n_shapes", "epochs", "train_seconds", "preset", "device"}``
   with ``d_R`` in m² (the paper reports it ×10⁻⁴); a network's rows also hold its run's structured fields
   (``"run", "architecture", "variant", "group"``), a baseline's ``"baseline"`` (``"nearest_neighbour"``,
@@ -68,6 +69,7 @@ from .experiments.report import (
     ablation_table,
     applications_markdown,
     discretisation_markdown,
+    read_results,
     results_markdown,
     targets,
     write_results,
@@ -92,6 +94,7 @@ __all__ = [
     "discretisation_markdown",
     "ablation_table",
     "results_markdown",
+    "read_results",
     "targets",
     "write_results",
     "refinement_curves",

@@ -97,8 +97,9 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
     rows = reproduce.reproduce(
         "quick", tmp_path, budget=budget, device="cpu", progress=False, applications=False, maps=False
     )
-    saved = json.loads((tmp_path / "results.json").read_text())
-    assert saved == json.loads(json.dumps(rows))
+    saved, context = reproduce.read_results(tmp_path)
+    assert saved == json.loads(json.dumps(rows)) and context["preset"] == "quick" and context["wall_seconds"] > 0
+    assert reproduce.results_markdown(saved, context) == (tmp_path / "results.md").read_text()  # all it needs
     t1 = [r for r in saved if r["table"] == "table1"]
     assert {(r["method"], r["split"]) for r in t1} == {
         (m, s)

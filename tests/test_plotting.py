@@ -11,6 +11,7 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 
 import opnet  # noqa: E402
+from opnet import plotting  # noqa: E402
 from opnet.plotting import plot_operators  # noqa: E402
 
 
@@ -109,3 +110,30 @@ def test_the_error_histograms_share_log_bins_and_count_every_shape():
     assert linear.axes[0].get_xscale() == "linear" and _bar_counts(linear.axes[0]) == [3]
     with pytest.raises(ValueError, match="non-positive"):
         plot_error_histograms({"a": [0.0]})
+
+
+def test_error_renders_share_one_range_in_mm_with_a_colour_bar():
+    pv = pytest.importorskip("pyvista")
+    from opnet.data import toy
+
+    plotting.use_static_backend()
+    base = toy.capsule("quick")
+    gt = np.stack([base.vertices, toy.bend(base.vertices, angle=0.5)]) * 0.5  # metres
+    small = gt + 0.002  # a translation: no error once aligned
+    far = np.stack([gt[1], gt[0]])  # the other shape: centimetres off
+    errors = [plotting.aligned_errors(r, gt)[1] for r in (small, far)]
+    top = plotting.error_top(errors)
+    assert top == pytest.approx(np.percentile(np.concatenate([e.ravel() for e in errors]), 98))
+    assert top < np.max(errors[1]) and plotting.error_scale(top) == (1000.0, "error (mm)")
+    plotter = plotting.plot_reconstructions(gt, {"small": small, "far": far}, base.faces)
+    try:
+        assert list(plotter.scalar_bars.keys()) == ["error (mm)"]  # one bar, for the range every panel shares
+        painted = [
+            a.mapper.scalar_range
+            for r in plotter.renderers
+            for a in r.actors.values()
+            if isinstance(a, pv.Actor) and a.mapper.scalar_visibility
+        ]
+        assert painted and all(np.allclose(rng, (0.0, 1000 * top)) for rng in painted)
+    finally:
+        plotter.close()

@@ -29,6 +29,9 @@ __all__ = [
     "write_results",
     "results_markdown",
     "discretisation_markdown",
+    "read_results",
+    "RESULTS_FORMAT",
+    "RESULTS_VERSION",
     "applications_markdown",
     "targets",
     "ablation_table",
@@ -165,13 +168,38 @@ def _fmt(v, scale=1.0, digits=3) -> str:
     return "–" if v is None or not np.isfinite(v) else f"{scale * v:.{digits}g}"
 
 
+#: What ``results.json`` holds: ``{"format": RESULTS_FORMAT, "version": RESULTS_VERSION, "context", "rows"}``.
+RESULTS_FORMAT, RESULTS_VERSION = "opnet.results", 2
+
+
 def write_results(out: Path, rows: list[dict], context: dict, seconds: float) -> None:
-    """Write ``out/results.json`` (the rows) and ``out/results.md`` (:func:`results_markdown` of ``context`` with
-    ``wall_seconds`` = ``seconds``), each atomically.
+    """Write ``out/results.json`` (the rows and ``context`` with ``wall_seconds`` = ``seconds``: all that
+    :func:`results_markdown` needs) and ``out/results.md`` (that Markdown), each atomically.
     """
-    atomic_write(out / "results.json", lambda f: f.write(json.dumps(rows, indent=1).encode()))
-    md = results_markdown(rows, dict(context, wall_seconds=round(seconds, 1)))
+    context = dict(context, wall_seconds=round(seconds, 1))
+    data = dict(format=RESULTS_FORMAT, version=RESULTS_VERSION, context=context, rows=rows)
+    atomic_write(out / "results.json", lambda f: f.write(json.dumps(data, indent=1).encode()))
+    md = results_markdown(rows, context)
     atomic_write(out / "results.md", lambda f: f.write(md.encode()))
+
+
+def read_results(path) -> tuple[list[dict], dict | None]:
+    """The rows of a ``results.json`` (:func:`upgrade_rows`: an older file's get their structured fields) and its
+    context (``None`` for a file of before version 2, which held the rows alone).
+
+    Parameters
+    ----------
+    path : path
+        ``results.json``, or the folder that holds it (a ``reproduce`` output folder).
+    """
+    path = Path(path)
+    path = path / "results.json" if path.is_dir() else path
+    data = json.loads(path.read_text())
+    if isinstance(data, list):  # version 1: the rows
+        return upgrade_rows(data), None
+    if data.get("format") != RESULTS_FORMAT:
+        raise ValueError(f"{path} is not a results.json that opnet's reproduce wrote (no format {RESULTS_FORMAT!r}).")
+    return upgrade_rows(data["rows"]), data["context"]
 
 
 def _encoder(depth: int) -> str:
@@ -408,6 +436,11 @@ def applications_markdown(rows: list[dict]) -> list[str]:
             verdicts.append(
                 f"- analogy, {kind}: {ratios} (target: OperatorNet (mult.) beats both at `default`): "
                 f"{'met' if met else 'missed'}."
+            )
+        linear = (_find(part, **_PAPER, scheme="linear") or {}).get("d_R")
+        if ours is not None and linear is not None:
+            verdicts.append(
+                f"- analogy, {kind}: the linear algebra's d_R / the multiplicative one's = {linear / ours:.2f}."
             )
     return lines + (["", "**Targets**", ""] + verdicts if verdicts else [])
 
