@@ -184,8 +184,8 @@ def write_results(out: Path, rows: list[dict], context: dict, seconds: float) ->
 
 
 def read_results(path) -> tuple[list[dict], dict | None]:
-    """The rows of a ``results.json`` (:func:`upgrade_rows`: an older file's get their structured fields) and its
-    context (``None`` for a file of before version 2, which held the rows alone).
+    """The rows of a ``results.json`` (:func:`~opnet.experiments.report.upgrade_rows`: an older file's get their
+    structured fields) and its context (``None`` for a file of before version 2, which held the rows alone).
 
     Parameters
     ----------
