@@ -128,7 +128,7 @@ def plot_meshes(
         if i == bar:
             kw["scalar_bar_args"] = dict(
                 title=scalar_bar, color="black", vertical=True, position_x=0.78, position_y=0.15, width=0.1,
-                height=0.6, n_labels=4, fmt="%.0f", title_font_size=12, label_font_size=11,
+                height=0.6, n_labels=4, fmt="%.3g", title_font_size=12, label_font_size=11,
             )  # fmt: skip
         if s is None:
             plotter.add_mesh(to_pyvista(m), color="lightsteelblue", **kw)
@@ -293,7 +293,8 @@ def error_top(errors) -> float:
     there are none.
     """
     values = [np.ravel(e) for e in errors]
-    return float(np.percentile(np.concatenate(values), 98)) if values else 1.0
+    top = float(np.nanpercentile(np.concatenate(values), 98)) if values else 1.0
+    return top if np.isfinite(top) and top > 0 else 1.0  # all NaN (a diverged network) or all exact
 
 
 def aligned_errors(shapes, truth):

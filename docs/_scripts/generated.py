@@ -34,6 +34,11 @@ def benchmark_report(name: str, result: dict | None = None) -> str:
 
 def write_benchmark_fragments(out: Path) -> list[Path]:
     """Write ``out/<name>.md`` for every shipped ``benchmarks/results/<name>.json``; the paths written."""
+    if not SHIPPED.is_dir():
+        raise FileNotFoundError(
+            f"no shipped benchmark results at {SHIPPED}: build the docs against an opnet checkout installed with "
+            "`pip install -e .` (the benchmarks and their results are not part of the installed package)."
+        )
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for path in sorted(SHIPPED.glob("*.json")):

@@ -144,6 +144,8 @@ class TrainConfig:
         Vertices the PointNet encoder reads (default 256, :attr:`points`).
     device : str
         ``"auto"``, ``"cpu"``, ``"cuda"``, ``"cuda:N"``.
+    checkpoint_every : float
+        Seconds between a run directory's checkpoints (the last epoch is always written); not a setting of the run.
     """
 
     channels: object = _option(
@@ -201,7 +203,8 @@ class TrainConfig:
             raise ValueError(f"schedule must be one of {SCHEDULES}, got {self.schedule!r}.")
         for name in ("epochs", "batch_size", "hidden"):
             check_int(name, getattr(self, name))
-        if not (isinstance(self.checkpoint_every, (int, float)) and self.checkpoint_every >= 0):
+        every = self.checkpoint_every
+        if isinstance(every, bool) or not (isinstance(every, (int, float)) and every >= 0):
             raise ValueError(
                 f"checkpoint_every must be a number of seconds >= 0 (0: after every epoch), got "
                 f"{self.checkpoint_every!r}."

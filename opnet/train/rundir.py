@@ -460,7 +460,7 @@ class RunState:
     start : int
         The epochs done when this call began (those of the run resumed).
     best_weights : dict, optional
-        A copy of the best epoch's state dict, kept in memory when no run directory is written.
+        A copy of the best epoch's state dict, kept in memory (written to ``best.pt`` with the next checkpoint).
     """
 
     history: list = field(default_factory=list)
@@ -541,7 +541,12 @@ class RunDir:
                     "train it again."
                 )
             net.load_state_dict(ckpt["model"])
+            fused = [
+                group.get("fused") for group in optimizer.param_groups
+            ]  # this torch's choice (opnet.train.loop.adam)
             optimizer.load_state_dict(ckpt["optimizer"])
+            for group, choice in zip(optimizer.param_groups, fused, strict=True):  # not the checkpoint's machine's
+                group["fused"] = choice
             state = RunState(ckpt["history"], ckpt["best_val"], ckpt["best_epoch"], ckpt["epoch"])
             self.best_written = state.best_epoch  # written with (before) that latest.pt
             self.latest_epoch = state.start
@@ -570,6 +575,7 @@ class RunDir:
         optimizer : torch.optim.Optimizer
             Its optimiser.
         """
+        self.latest_epoch = epoch  # on every rank: what a divergence message names
         if self.rank != 0:
             return
         run_dir = self.path
@@ -591,7 +597,6 @@ class RunDir:
             ),
             run_dir / "latest.pt",
         )
-        self.latest_epoch = epoch
 
     def load_best(self, net, state: RunState, device) -> None:
         """Put the best epoch's weights (``best.pt``, once rank 0 has written it) into ``net``, if there is one."""
