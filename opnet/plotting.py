@@ -206,7 +206,7 @@ def plot_reconstructions(gt, reconstructions: dict, faces, *, titles=None, clim=
         for name in reconstructions:
             meshes.append((aligned[name][i], faces))
             scalars.append(factor * errors[name][i])
-            labels.append(f"{name}: mean {1000 * errors[name][i].mean():.1f} mm" if clim[1] < 1 else name)
+            labels.append(f"{name}: mean {factor * errors[name][i].mean():.1f} mm" if factor != 1 else name)
     ncols = 1 + len(reconstructions)
     return plot_meshes(
         meshes,
@@ -332,7 +332,7 @@ def plot_interpolations(paths: dict, faces, t, *, truth=None, columns: int = 6, 
                 meshes.append((np.asarray(p)[c], faces))
                 scalars.append(None)
             head = f"{name}\n" if j == 0 else "\n"
-            err = f", {1000 * errors[name][1][j].mean():.1f} mm" if name in errors and clim[1] < 1 else ""
+            err = f", {factor * errors[name][1][j].mean():.1f} mm" if name in errors and factor != 1 else ""
             titles.append(f"{head}t = {t[c]:.2f}{err}")
     return plot_meshes(
         meshes,
@@ -367,7 +367,7 @@ def plot_analogies(A, B, C, results: dict, faces, *, truth=None, clim=None, came
             if name in errors:
                 shown.append(
                     (
-                        f"{name}: {1000 * errors[name][1][i].mean():.1f} mm" if clim[1] < 1 else name,
+                        f"{name}: {factor * errors[name][1][i].mean():.1f} mm" if factor != 1 else name,
                         errors[name][0][i],
                         factor * errors[name][1][i],
                     )
