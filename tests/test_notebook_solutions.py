@@ -1,6 +1,7 @@
 """The exercises' solutions (Python blocks in the notebooks' collapsible ``<details>``) parse, and every name they
 take from opnet exists: nbval does not run them (they are markdown), so an API change would otherwise leave them
-silently broken. Their numbers were checked when they were written, at the quick preset."""
+silently broken. Their numbers were checked when they were written, at the quick preset. And every cell whose output
+nbval compares holds that output (a notebook saved without it fails only in the slow tier)."""
 
 import ast
 import importlib
@@ -82,3 +83,12 @@ def test_solutions_parse_and_name_real_opnet_functions(path):
                     assert not inspect.ismodule(obj), f"{path.name}: a solution uses {missing}, which does not exist"
                     break
                 obj = getattr(obj, attr)
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_cells_whose_output_nbval_checks_hold_their_output(path):
+    cells = [c for c in json.loads(path.read_text())["cells"] if c["cell_type"] == "code"]
+    empty = [i for i, c in enumerate(cells) if "NBVAL_CHECK_OUTPUT" in "".join(c["source"]) and not c.get("outputs")]
+    assert not empty, (
+        f"{path.name}: code cells {empty} are checked by nbval but were saved without outputs; run make run"
+    )
