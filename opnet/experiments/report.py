@@ -28,6 +28,11 @@ from .spec import RunSpec
 __all__ = [
     "write_results",
     "results_markdown",
+    "results_sections",
+    "SECTION_TITLES",
+    "context_markdown",
+    "table1_markdown",
+    "ablation_markdown",
     "discretisation_markdown",
     "read_results",
     "RESULTS_FORMAT",
@@ -207,16 +212,46 @@ def _encoder(depth: int) -> str:
 
 
 def results_markdown(rows: list[dict], context: dict) -> str:
-    """``results.md``: Table 1 (per test set, with the paper's numbers), the targets, and the ablation.
+    """``results.md``: :func:`results_sections` under their headings (the context's lines first).
 
     ``context``: ``preset``, ``machine``, ``collection``, ``eval_subset`` (its size), ``wall_seconds`` and ``budget``
     (the reproduction's budget as a dict: ``lr``, ``batch_size``, ``epochs``, ``ablation_epochs``...).
     """
-    b = context["budget"]
+    lines = [f"# OperatorNet reproduction · preset `{context['preset']}`", ""]
+    for name, body in results_sections(rows, context).items():
+        lines += ([] if name == "context" else ["", f"## {SECTION_TITLES[name]}", ""]) + body
+    return "\n".join(lines) + "\n"
+
+
+#: The headings of :func:`results_sections` in ``results.md``.
+SECTION_TITLES = {
+    "context": "",
+    "table1": "Table 1: shape reconstruction",
+    "targets": "Targets",
+    "ablation": "Ablation (Appendix B): d_R ×10⁻⁴ on `test`",
+    "discretisation": "Other triangulations: test shapes on 2k and 5k meshes",
+    "applications": "Applications: analogy and interpolation against ground truth",
+}
+
+
+def results_sections(rows: list[dict], context: dict) -> dict[str, list[str]]:
+    """The sections of ``results.md``, name → Markdown lines without their heading (:data:`SECTION_TITLES`): the
+    ``context`` (machine, data, training), ``table1``, its ``targets``, the ``ablation``, the ``discretisation``
+    rows and the ``applications``; a section without rows is left out. The docs' results page shows the shipped
+    reproduction's sections one by one.
+    """
     rows = upgrade_rows(rows)
-    lines = [
-        f"# OperatorNet reproduction · preset `{context['preset']}`",
-        "",
+    t1 = [r for r in rows if r.get("table") == "table1"]
+    sections = {"context": context_markdown(context), "table1": table1_markdown(rows), "targets": targets(t1)}
+    sections |= {"ablation": ablation_markdown(rows, context["budget"])}
+    sections |= {"discretisation": discretisation_markdown(rows), "applications": applications_markdown(rows)}
+    return {name: lines for name, lines in sections.items() if lines}
+
+
+def context_markdown(context: dict) -> list[str]:
+    """What a reproduction ran on (lines): the machine, the wall time, the data and the training settings."""
+    b = context["budget"]
+    return [
         f"Machine: {context['machine']}. Wall time so far: {context['wall_seconds']:.0f} s "
         "(data, training, evaluation; finished runs are reused, so a resumed call counts only what it did).",
         "",
@@ -227,13 +262,17 @@ def results_markdown(rows: list[dict], context: dict) -> str:
         "(fewer, to keep the 28-network grid affordable); model "
         "selection on `val`. The paper's numbers are on DFAUST, ours on `anny` humans: the scale (metres) is "
         "alike, the data are not the same.",
-        "",
-        "## Table 1: shape reconstruction",
-        "",
-        "d_R ×10⁻⁴ (m²), mean (median in brackets).",
-        "",
     ]
-    t1 = [r for r in rows if r.get("table") == "table1"]
+
+
+def table1_markdown(rows: list[dict]) -> list[str]:
+    """Table 1 (lines): every method's d_R, d_V and d_E per test set beside the paper's, its training time and its
+    time per shape; empty without Table 1 rows.
+    """
+    t1 = [r for r in upgrade_rows(rows) if r.get("table") == "table1"]
+    if not t1:
+        return []
+    lines = ["d_R ×10⁻⁴ (m²), mean (median in brackets).", ""]
     keys = list(dict.fromkeys(row_key(r) for r in t1))
     splits = [s for s in TEST_SETS if any(r["split"] == s for r in t1)]
     head = (
@@ -277,56 +316,62 @@ def results_markdown(rows: list[dict], context: dict) -> str:
             f"{name}: evaluated on {', '.join(where)} (evenly spaced, to bound the optimisation's time; "
             "`Budget.refine_shapes`)."
         )
-    lines += ["", "## Targets", ""] + targets(t1)
+    return lines
+
+
+def ablation_markdown(rows: list[dict], budget: dict) -> list[str]:
+    """The ablation (lines): the depth × channels grid of d_R beside the paper's, its caveat when the networks are
+    barely trained, and whether the paper's trends hold; empty before the first ablation network. ``budget``: the
+    reproduction's (``ablation_epochs``, ``epochs``), as a dict.
+    """
+    b = budget
     table = ablation_table(rows)
-    if np.isfinite(table).any():
-        cols = list(PAPER_ABLATION_SETS)
+    if not np.isfinite(table).any():
+        return []
+    cols = list(PAPER_ABLATION_SETS)
+    lines = [
+        f"Each network trained {b['ablation_epochs']} epochs (Table 1's have {b['epochs']}).",
+        "",
+        "| encoder | " + " | ".join(cols) + " |",
+        "|---" * (len(cols) + 1) + "|",
+    ]
+    for i, d in enumerate(PAPER_ABLATION_DEPTHS):
+        best = np.nanargmin(table[i]) if np.isfinite(table[i]).any() else -1
+        cells = [f"**{_fmt(v)}**" if j == best else _fmt(v) for j, v in enumerate(table[i])]
+        lines.append(f"| {_encoder(d)} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        "The paper's (DFAUST):",
+        "",
+        "| encoder | " + " | ".join(cols) + " |",
+        "|---" * (len(cols) + 1) + "|",
+    ]
+    for d, vals in PAPER_ABLATION.items():
+        lines.append(f"| {_encoder(d)} | " + " | ".join(f"{v:g}" for v in vals) + " |")
+    done = table[:, -1]
+    t1 = [r for r in rows if r.get("table") == "table1"]
+    nn = (_find(t1, "test", **_NN) or {}).get("d_R")
+    if nn is not None and np.nanmin(table) > 0.5e4 * nn:
         lines += [
             "",
-            "## Ablation (Appendix B): d_R ×10⁻⁴ on `test`",
-            "",
-            f"Each network trained {b['ablation_epochs']} epochs (Table 1's have {b['epochs']}).",
-            "",
-            "| encoder | " + " | ".join(cols) + " |",
-            "|---" * (len(cols) + 1) + "|",
+            f"**Caveat:** with {b['ablation_epochs']} epochs at this preset the ablation networks are barely "
+            f"trained (every cell is above half of NN's {_fmt(nn, 1e4)}), so the differences between cells are "
+            "mostly noise: this table shows the pipeline, not the paper's trends. Use a larger preset.",
         ]
-        for i, d in enumerate(PAPER_ABLATION_DEPTHS):
-            best = np.nanargmin(table[i]) if np.isfinite(table[i]).any() else -1
-            cells = [f"**{_fmt(v)}**" if j == best else _fmt(v) for j, v in enumerate(table[i])]
-            lines.append(f"| {_encoder(d)} | " + " | ".join(cells) + " |")
+    if np.isfinite(table).all():
+        best_col = np.mean(np.argmin(table, axis=1) == len(cols) - 1)
         lines += [
             "",
-            "The paper's (DFAUST):",
-            "",
-            "| encoder | " + " | ".join(cols) + " |",
-            "|---" * (len(cols) + 1) + "|",
+            f"All three operators give the best column in {best_col:.0%} of the depths (the paper: 100 %); "
+            f"depth 1 is {'the best' if np.argmin(done) == 0 else 'not the best'} for A+E+C "
+            f"({', '.join(_fmt(v) for v in done)} for depths 1–4).",
         ]
-        for d, vals in PAPER_ABLATION.items():
-            lines.append(f"| {_encoder(d)} | " + " | ".join(f"{v:g}" for v in vals) + " |")
-        done = table[:, -1]
-        nn = (_find(t1, "test", **_NN) or {}).get("d_R")
-        if nn is not None and np.nanmin(table) > 0.5e4 * nn:
-            lines += [
-                "",
-                f"**Caveat:** with {b['ablation_epochs']} epochs at this preset the ablation networks are barely "
-                f"trained (every cell is above half of NN's {_fmt(nn, 1e4)}), so the differences between cells are "
-                "mostly noise: this table shows the pipeline, not the paper's trends. Use a larger preset.",
-            ]
-        if np.isfinite(table).all():
-            best_col = np.mean(np.argmin(table, axis=1) == len(cols) - 1)
-            lines += [
-                "",
-                f"All three operators give the best column in {best_col:.0%} of the depths (the paper: 100 %); "
-                f"depth 1 is {'the best' if np.argmin(done) == 0 else 'not the best'} for A+E+C "
-                f"({', '.join(_fmt(v) for v in done)} for depths 1–4).",
-            ]
-    lines += discretisation_markdown(rows)
-    lines += applications_markdown(rows)
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def discretisation_markdown(rows: list[dict]) -> list[str]:
-    """The different-discretisation section of ``results.md`` (lines): d_R per encoding and network, and the target."""
+    """The different-discretisation section of ``results.md`` (lines, without its heading): d_R per encoding and
+    network, and the target."""
     disc = [r for r in rows if r.get("table") == "discretisation"]
     if not disc:
         return []
@@ -335,9 +380,6 @@ def discretisation_markdown(rows: list[dict]) -> list[str]:
     encodings = list(dict.fromkeys((r["resolution"], r["maps"]) for r in disc))
     get = {(r["resolution"], r["maps"], row_key(r)): r for r in disc}
     lines = [
-        "",
-        "## Other triangulations: test shapes on 2k and 5k meshes",
-        "",
         f"{disc[0]['n_shapes']} `test` shapes (evenly spaced) generated on each mesh, mapped onto the 1k base "
         "by the generator's true correspondence or by a computed map (`opnet.matching.compute_map`), encoded "
         "through the map and decoded by each network; d_R ×10⁻⁴ against the 1k shapes (median in brackets). "
@@ -375,15 +417,13 @@ def discretisation_markdown(rows: list[dict]) -> list[str]:
 
 
 def applications_markdown(rows: list[dict]) -> list[str]:
-    """The applications' section of ``results.md`` (lines): the analogy and interpolation tables and their targets."""
+    """The applications' section of ``results.md`` (lines, without its heading): the analogy and interpolation
+    tables and their targets."""
     ana = [r for r in rows if r.get("table") == "analogy"]
     itp = [r for r in rows if r.get("table") == "interpolation"]
     if not ana and not itp:
         return []
     lines = [
-        "",
-        "## Applications: analogy and interpolation against ground truth",
-        "",
         "Subjects from `test_subjects`, poses from the `test` sequences; the true shapes are generated from the "
         "generator's parameters (`opnet.apps`). d_R ×10⁻⁴ (median in brackets). *direct*: the same method on "
         "X given X itself (its floor: the rest is the algebra's error).",
