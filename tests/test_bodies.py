@@ -288,3 +288,19 @@ def test_editing_the_model_building_code_rebuilds_the_cached_model(tmp_path, mon
 
 def test_the_adapter_lists_the_human_resolutions():
     assert set(anny_adapter.RESOLUTIONS) == set(humans.RESOLUTIONS)
+
+
+def test_building_the_decimated_bodies_prints_nothing_from_warp():
+    """anny's retopology runs NVIDIA Warp, whose first use prints a greeting and, without a GPU, a CUDA warning from
+    C; a cold build of the 2k/5k bodies (a fresh process: Warp starts once) must keep a notebook's output clean."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("warp")
+    code = (
+        "import sys; from opnet.data import anny_adapter; anny_adapter._init_warp_quietly(); import warp; "
+        "assert warp.is_cpu_available(); print('stderr works', file=sys.stderr)"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.strip() == "stderr works", result.stderr

@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import os
 import re
+import sys
 import types
 from importlib.metadata import version
 
@@ -70,6 +72,28 @@ RESOLUTIONS = {"1k": "notoes_collapse10pc", "2k": "notoes_quadric2000", "5k": "n
 _QUADRIC_PREFIX = "notoes_quadric"
 
 
+@functools.cache
+def _init_warp_quietly() -> None:
+    """Initialise NVIDIA Warp, which anny's retopology runs, without its greeting and, on a machine without a GPU,
+    the CUDA warning that its C code prints to file descriptor 2 (neither says anything wrong); once per process.
+    Warp's log level stays at warnings, so that its kernels' load times are not printed either.
+    """
+    try:
+        import warp
+    except ImportError:  # an anny without Warp's code paths
+        return
+    warp.config.log_level = max(warp.config.log_level, warp.LOG_WARNING)
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            warp.init()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
 def _decimated_notoes_model_data(n_vertices: int, code_version: str):
     """Anny model data on a quadric decimation of the "notoes" mesh to ``n_vertices`` vertices.
 
@@ -78,6 +102,7 @@ def _decimated_notoes_model_data(n_vertices: int, code_version: str):
     ``code_version`` is not used here: it is part of anny's cache key (see :func:`model_code_version`).
     """
     pv = require("pyvista", "opnet's 2k and 5k human models")
+    _init_warp_quietly()
     from anny.models.full_model import build_anny_model_data
     from anny.models.model_data import RigConfig, TopologyConfig, with_bone_orientation
     from anny.models.model_transforms import (
