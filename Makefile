@@ -8,7 +8,8 @@
 #               Python >= 3.11, and every extra: the API pages import the modules)
 #   make reproduce PRESET=default   Table 1 + ablation into build/reproduce-$(PRESET) (results.json/md, figures)
 #   make benchmarks  measure again the benchmarks the docs show, into benchmarks/results/*.json (an idle machine;
-#               about 20 min on 2 cores, most of it the PointNet one)
+#               about 20 min on 2 cores, most of it the PointNet one); the results page's ones (matching, refinement,
+#               scaling, variants) read the default reproduction's networks: make benchmarks-results (hours)
 PYTHON ?= python3
 VENV   ?= .venv
 PRESET ?= quick
@@ -18,13 +19,13 @@ STAMP  := $(VENV)/.installed-stamp
 # machines; an unpinned torch would pull a multi-GB CUDA build. The package accepts any recent torch.
 TORCH  ?= torch==2.13.0
 
-.PHONY: run test test-fast test-core docs reproduce benchmarks clean
+.PHONY: run test test-fast test-core docs reproduce benchmarks benchmarks-results clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet "$(TORCH)"
-	$(PY) -m pip install --quiet -e ".[all,test,docs]"
+	$(PY) -m pip install --quiet -e ".[all,test,docs,browser]"
 	touch $(STAMP)
 
 run: $(STAMP)
@@ -40,7 +41,7 @@ test: $(STAMP)
 	OPNET_PRESET=quick OPNET_STATIC_WIDGETS=1 $(PY) -m pytest --durations=30
 
 # The tiers are pytest markers (pyproject.toml); FAST selects the core tier.
-FAST := not slow and not docs and not notebooks
+FAST := not slow and not docs and not notebooks and not browser
 
 test-fast: $(STAMP)
 	OPNET_PRESET=quick OPNET_STATIC_WIDGETS=1 $(PY) -m pytest tests -m "$(FAST)"
@@ -72,6 +73,15 @@ benchmarks: $(STAMP)
 	cd benchmarks && ../$(PY) training.py --json results/training.json
 	cd benchmarks && ../$(PY) channels.py --json results/channels.json
 	cd benchmarks && ../$(PY) pointnet.py --preset quick --threads 2 --json results/pointnet.json
+
+# after make reproduce PRESET=default (its runs are read from build/reproduce-default)
+benchmarks-results: $(STAMP)
+	cd benchmarks && ../$(PY) matching.py --preset default --shapes 16 --runs ../build/reproduce-default/runs \
+		--json results/matching.json
+	cd benchmarks && ../$(PY) refinement.py --preset default --every 4 --reproduce-dir ../build/reproduce-default \
+		--json results/refinement.json
+	cd benchmarks && ../$(PY) scaling.py --preset quick --epochs 80 --seeds 0 1 2 3 --json results/scaling.json
+	cd benchmarks && ../$(PY) variants.py --preset default --out ../build/variants-default --json results/variants.json
 
 clean:
 	rm -rf build $(VENV) .venv-core

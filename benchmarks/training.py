@@ -1,19 +1,19 @@
-"""Benchmark: OperatorNet training throughput (samples/s), and the input scaling D vs D − I on val.
+"""Benchmark: OperatorNet training throughput (samples/s).
 
-Part 1 times full training steps (forward, Kabsch-aligned loss, backward, Adam) of the paper's network
-(depth 1, three 60 × 60 operators in, 1229 vertices out: the humans' size) on synthetic tensors, at several
-batch sizes and thread counts, on the CPU and on CUDA when present, with torch's default Adam and with the
-fused one that ``opnet.train.fit`` uses (``opnet.train.loop.adam``), side by side. Best of 3 repeats after a
-warm-up. ``--json PATH`` writes part 1's results (``benchmarks/results/training.json`` is the shipped one).
+Times full training steps (forward, Kabsch-aligned loss, backward, Adam) of the paper's network (depth 1, three
+60 × 60 operators in, 1229 vertices out: the humans' size) on synthetic tensors, at several batch sizes and thread
+counts, on the CPU and on CUDA when present, with torch's default Adam and with the fused one that
+``opnet.train.fit`` uses (``opnet.train.loop.adam``), side by side. Best of 3 repeats after a warm-up. ``--json
+PATH`` writes the results (``benchmarks/results/training.json`` is the shipped one).
 
-Part 2 (``--scaling``) trains the same network on the humans of a preset twice per seed, once fed ``D`` and
-once ``D − I`` (``subtract_identity``), and reports the best validation ``d_R`` of each: the measurement
-behind ``OperatorNet``'s default. It reads only ``train`` and ``val``.
+The input scaling ``D`` against ``D − I`` on ``val`` (which trains networks on the humans) has its own script and
+result file, ``benchmarks/scaling.py`` (``results/scaling.json``); ``training.py --scaling [its options]`` runs it
+(``--scaling-batch-size`` is its ``--batch-size``).
 
 Run::
 
     .venv/bin/python benchmarks/training.py                      # throughput table, ~2 min
-    .venv/bin/python benchmarks/training.py --scaling --preset quick --epochs 80 --seeds 0 1
+    .venv/bin/python benchmarks/training.py --scaling --preset quick --epochs 80 --seeds 0 1 2 3
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sys
 import time
 
 import numpy as np
@@ -75,7 +76,7 @@ def throughput(device: str, batch_sizes, threads, steps: int, n_vertices: int = 
 
 
 def report(result: dict) -> str:
-    """The Markdown report of part 1 (what the script prints; the docs render the shipped result)."""
+    """The Markdown report (what the script prints; the docs render the shipped result)."""
     rows = result["rows"]
     plain = {(r["device"], r["threads"], r["batch"]): r for r in rows if r["optimizer"] == "torch default"}
     out = [
@@ -97,32 +98,20 @@ def report(result: dict) -> str:
     return "\n".join(out)
 
 
-def scaling(preset: str, epochs: int, seeds, batch_size: int) -> None:
-    ds = opnet.data.load_collection("humans", preset)
-    print(f"\n## D vs D − I, humans/{preset}, {epochs} epochs, batch {batch_size}: best val d_R (×10⁻⁴ m²)\n")
-    print("| seed | D | D − I | ratio D / (D − I) |\n|---:|---:|---:|---:|")
-    for seed in seeds:
-        best = {}
-        for sub in (False, True):
-            _, h = opnet.train.fit(
-                ds, epochs=epochs, batch_size=batch_size, seed=seed, subtract_identity=sub, progress=False
-            )
-            best[sub] = min(e["val_d_R"] for e in h) * 1e4
-        print(f"| {seed} | {best[False]:.3f} | {best[True]:.3f} | {best[False] / best[True]:.2f} |", flush=True)
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if "--scaling" in argv:  # the input scaling: benchmarks/scaling.py, its own report and result file
+        import scaling
 
-
-def main() -> None:
+        rest = [a for a in argv if a != "--scaling"]
+        return scaling.main(["--batch-size" if a == "--scaling-batch-size" else a for a in rest])
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--batch-sizes", type=int, nargs="+", default=[16, 32, 64])
     p.add_argument("--threads", type=int, nargs="+", default=sorted({1, os.cpu_count() or 1}))
     p.add_argument("--steps", type=int, default=10, help="training steps per timing")
-    p.add_argument("--json", metavar="PATH", help="also write part 1's results as JSON to PATH")
-    p.add_argument("--scaling", action="store_true", help="also compare D and D − I on val (trains networks)")
-    p.add_argument("--preset", default="quick")
-    p.add_argument("--epochs", type=int, default=80)
-    p.add_argument("--scaling-batch-size", type=int, default=16)
-    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
-    args = p.parse_args()
+    p.add_argument("--json", metavar="PATH", help="also write the results as JSON to PATH")
+    p.add_argument("--scaling", action="store_true", help="instead: D against D − I on val (benchmarks/scaling.py)")
+    args = p.parse_args(argv)
     machine = dict(processor=platform.processor() or platform.machine(), cpu_count=os.cpu_count())
     machine |= dict(torch=torch.__version__, loadavg_1min_at_start=round(os.getloadavg()[0], 2))
     rows = throughput("cpu", args.batch_sizes, args.threads, args.steps)
@@ -134,8 +123,6 @@ def main() -> None:
     print(report(result))
     if args.json:
         save(result, args.json)
-    if args.scaling:
-        scaling(args.preset, args.epochs, args.seeds, args.scaling_batch_size)
 
 
 if __name__ == "__main__":

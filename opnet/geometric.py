@@ -147,8 +147,9 @@ def reconstruct(
         mismatch (tensors, detached); e.g. to record curves. Batches come one after the other.
     coarse_to_fine : increasing sizes ``m < k``, e.g. ``(20, 40)``: first match the leading ``m × m`` operators
         (:func:`truncate_operators`, on ``base_basis.truncate(m)``) for ``steps`` steps at each size in turn, then
-        the full ones for ``steps`` more. Measured on ``val`` (``docs/results.md``): as accurate as one stage with as
-        many steps in about half the time. ``callback`` then sees the steps of all stages, numbered on.
+        the full ones for ``steps`` more. Measured on ``val`` by ``benchmarks/refinement.py`` (the docs' results
+        page): about as accurate as one stage with as many steps, at a little less CPU time. ``callback`` then sees
+        the steps of all stages, numbered on.
     progress : show a progress bar over the steps of all batches (default: on).
 
     Returns

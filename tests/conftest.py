@@ -1,8 +1,10 @@
 """Shared small meshes (a capsule base and smooth deformations of it, all in 1-1 correspondence), small collections
 of them (the factories ``tiny_collection`` and ``toy_collection``), and the quick humans generated once per session."""
 
+import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +23,7 @@ _MODULE_TIERS = {
     "test_mapped": "maps",
     "test_anny_collections": "slow",
     "test_bodies": "slow",  # the body model: its first use builds a cache for minutes
+    "test_browser": "browser",
 }
 #: Fixtures that make a test slow: the generated humans (the body model builds them; minutes on a cold cache).
 _SLOW_FIXTURES = {"humans"}
@@ -175,3 +178,42 @@ def _run_cli(*args, env=None, **kw) -> subprocess.CompletedProcess:
 def cli():
     """``cli(*args, env=None, **kw)``: ``python -m opnet *args`` in a subprocess, output captured as text."""
     return _run_cli
+
+
+# -- the documentation site, built once per session (tests/test_docs_site.py, tests/test_browser.py) ---------------
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+def _sphinx_build(source: Path, out: Path) -> subprocess.CompletedProcess:
+    """``make docs``'s build (warnings are errors, nitpicky) of the pages in ``source`` into ``out``."""
+    command = [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-n", "-q", "-b", "html", str(source), str(out)]
+    return subprocess.run(command, capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture(scope="session")
+def sphinx_build():
+    """``sphinx_build(source, out)``: the documentation build of ``source`` into ``out`` (a completed process)."""
+    return _sphinx_build
+
+
+@pytest.fixture(scope="session")
+def docs_site(tmp_path_factory):
+    """``(html, result)``: the site of ``docs/`` built once per session into ``html`` (15 s to 1.5 min on 2 cores)."""
+    out = tmp_path_factory.mktemp("docs_site") / "html"
+    return out, _sphinx_build(DOCS, out)
+
+
+def _markdown_tables(notebook: Path) -> list[str]:
+    return [  # the Markdown tables the notebook displays (Table 1, the ablation, the applications' tables)
+        text
+        for cell in json.loads(notebook.read_text())["cells"]
+        for output in cell.get("outputs", [])
+        if "|---" in (text := "".join(output.get("data", {}).get("text/markdown", "")))
+    ]
+
+
+@pytest.fixture(scope="session")
+def markdown_tables():
+    """``markdown_tables(notebook)``: the Markdown tables (text) that a notebook's saved outputs display."""
+    return _markdown_tables

@@ -449,7 +449,7 @@ def test_a_table1_of_before_renders_one_line_per_method():
     lines = [line for line in text.splitlines() if line.startswith("| ") and "test: d_R" not in line]
     assert [line.split(" | ")[0][2:] for line in lines] == [*names, "a method of one's own"]
     assert lines[0].split(" | ")[4] == "1.11"  # the paper's d_R beside the paper's network
-    assert "NN's d_R / OperatorNet (Int+Ext)'s = 3.0" in text and "d_R / ours = 0.50" in text
+    assert "NN's d_R / OperatorNet (Int+Ext)'s = 3 (" in text and "d_R / ours = 0.50" in text
 
 
 def test_digests_are_the_same_in_every_process_and_see_a_subclass_code(tmp_path):

@@ -5,10 +5,8 @@ docstrings, must resolve) into a temporary folder. The notebooks are rendered fr
 executed, so a build takes about 15 s on 2 cores.
 """
 
-import json
 import re
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -21,45 +19,39 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "docs" / "_scripts"))
 from generated import benchmark_report  # noqa: E402
 
+#: the page each shipped ``benchmarks/results/<name>.json`` is rendered on, when not the benchmarks page
+RESULT_PAGES = {"matching": "results", "refinement": "results", "scaling": "results", "variants": "results"}
 REMOTE_ASSET = re.compile(r"<(?:script|link|img)\b[^>]*\b(?:src|href)=\"(?:https?:)?//[^\"]+\"")
 
 
-def sphinx_build(source: Path, out: Path) -> subprocess.CompletedProcess:
-    command = [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-n", "-q", "-b", "html", str(source), str(out)]
-    return subprocess.run(command, capture_output=True, text=True, timeout=600)
-
-
-def test_site_builds_with_every_reference_resolved_and_nothing_remote(tmp_path):
-    out = tmp_path / "html"
-    result = sphinx_build(ROOT / "docs", out)
+def test_site_builds_with_every_reference_resolved_and_nothing_remote(docs_site, markdown_tables):
+    out, result = docs_site  # built once per session (tests/conftest.py), also opened in Chromium by test_browser
     assert result.returncode == 0, result.stderr[-6000:]
     assert (out / "index.html").is_file() and (out / "api" / "opnet.spectral.html").is_file()
     for notebook in sorted((ROOT / "notebooks").glob("0*.ipynb")):
         page = (out / "tutorials" / f"{notebook.stem}.html").read_text()
         assert "<img" in page, f"{notebook.name}: no figure rendered"
-        tables = [  # the Markdown tables the notebook displays (Table 1, the ablation, the applications' tables)
-            text
-            for cell in json.loads(notebook.read_text())["cells"]
-            for output in cell.get("outputs", [])
-            if "|---" in (text := "".join(output.get("data", {}).get("text/markdown", "")))
-        ]
+        tables = markdown_tables(notebook)
         if tables:  # rendered as tables, not as a paragraph of `| ... |` text
             raw = re.search(r"<p>\|[^<]*\|---", page)  # a table left as a paragraph of its source text
             assert page.count("<table") >= len(tables) and raw is None, f"{notebook.name}: a table shown as text"
-    benchmarks = (out / "benchmarks.html").read_text()
     shipped = sorted((ROOT / "benchmarks" / "results").glob("*.json"))
-    assert shipped and benchmarks.count("<table") == len(shipped)  # one table per shipped measurement
-    for path in shipped:  # each rendered from its file: its table's cells are on the page
+    page_of = {path.stem: RESULT_PAGES.get(path.stem, "benchmarks") for path in shipped}
+    pages = {name: (out / f"{name}.html").read_text() for name in {"benchmarks", *page_of.values()}}
+    on_benchmarks = [name for name, page in page_of.items() if page == "benchmarks"]
+    assert on_benchmarks and pages["benchmarks"].count("<table") == len(on_benchmarks)  # one table per measurement
+    for path in shipped:  # each rendered from its file: its table's cells are on its page
         report = benchmark_report(path.stem)
         body = report[report.index("|---") :].splitlines()[1:]
         cells = [c.strip() for line in body if line.startswith("|") for c in line.strip("|").split("|")]
-        missing = [c for c in cells if re.fullmatch(r"[\d,.]+", c) and f">{c}<" not in benchmarks]
-        assert not missing, f"{path.name}: cells not on the benchmarks page: {missing[:5]}"
+        page = page_of[path.stem]
+        missing = [c for c in cells if re.fullmatch(r"[\d,.]+", c) and f">{c}<" not in pages[page]]
+        assert not missing, f"{path.name}: cells not on the {page} page: {missing[:5]}"
     for page in out.rglob("*.html"):  # offline: no script, stylesheet, font or picture fetched at view time
         assert not REMOTE_ASSET.search(page.read_text()), f"{page.relative_to(out)} loads a remote asset"
 
 
-def test_a_broken_reference_fails_the_build(tmp_path):
+def test_a_broken_reference_fails_the_build(tmp_path, sphinx_build):
     """A copy of docs/ with one more page naming a function that does not exist: the build fails on it."""
     source = tmp_path / "docs"
     shutil.copytree(ROOT / "docs", source)  # follows docs/tutorials' links: real copies of the notebooks

@@ -73,25 +73,29 @@ _QUADRIC_PREFIX = "notoes_quadric"
 
 
 @functools.cache
-def _init_warp_quietly() -> None:
-    """Initialise NVIDIA Warp, which anny's retopology runs, without its greeting and, on a machine without a GPU,
-    the CUDA warning that its C code prints to file descriptor 2 (neither says anything wrong); once per process.
-    Warp's log level stays at warnings, so that its kernels' load times are not printed either.
+def _import_anny_warp() -> None:
+    """Import anny's NVIDIA Warp helpers (its retopology uses them when it builds a model's cache) the way a notebook
+    needs: the module sets ``sys.stdout = sys.__stdout__`` when imported, which sends every later ``print`` of a
+    Jupyter kernel to the terminal instead of the notebook, and Warp's first use prints a greeting and, on a machine
+    without a GPU, a CUDA warning from C to file descriptor 2. Here ``sys.stdout`` is kept, fd 2 is silenced for the
+    import, and Warp's log level stays at warnings (its kernels' load times are not printed either). Once per process.
     """
     try:
         import warp
     except ImportError:  # an anny without Warp's code paths
         return
     warp.config.log_level = max(warp.config.log_level, warp.LOG_WARNING)
+    stdout = sys.stdout
     sys.stderr.flush()
     saved = os.dup(2)
     try:
         with open(os.devnull, "w") as null:
             os.dup2(null.fileno(), 2)
-            warp.init()
+            import anny.utils.warp_mesh_utils  # noqa: F401
     finally:
         os.dup2(saved, 2)
         os.close(saved)
+        sys.stdout = stdout
 
 
 def _decimated_notoes_model_data(n_vertices: int, code_version: str):
@@ -102,7 +106,6 @@ def _decimated_notoes_model_data(n_vertices: int, code_version: str):
     ``code_version`` is not used here: it is part of anny's cache key (see :func:`model_code_version`).
     """
     pv = require("pyvista", "opnet's 2k and 5k human models")
-    _init_warp_quietly()
     from anny.models.full_model import build_anny_model_data
     from anny.models.model_data import RigConfig, TopologyConfig, with_bone_orientation
     from anny.models.model_transforms import (
@@ -185,6 +188,7 @@ def human_model(resolution: str = "1k"):
     """
     if resolution not in RESOLUTIONS:
         raise ValueError(f"resolution must be one of {list(RESOLUTIONS)}, got {resolution!r}.")
+    _import_anny_warp()
     topology = RESOLUTIONS[resolution]
     if topology.startswith(_QUADRIC_PREFIX):
         model = anny.Anny.from_model_data(
@@ -202,6 +206,7 @@ def human_model(resolution: str = "1k"):
 @functools.lru_cache(maxsize=None)
 def head_model():
     """Anny's head model (``topology="head"``, rig ``"anny-head"``) with its 52 facial actions, float64."""
+    _import_anny_warp()
     return _ready(anny.Anny(topology="head", rig="anny-head", facial_actions="all", skinning_method="lbs"))
 
 
@@ -212,6 +217,7 @@ def hand_model():
     Posed in anny's ``"local-bone"`` parameterization: each bone turns in its own axes, ``y`` along
     the bone and ``x`` the flexion hinge.
     """
+    _import_anny_warp()
     model = anny.Anny(topology="hand.R", rig="anny-hand.R", skinning_method="lbs", pose_parameterization="local-bone")
     return _ready(model)
 

@@ -48,7 +48,7 @@ __all__ = [
     "PAPER_TABLE1_ROWS",
 ]
 
-_SPLIT_NAMES = {"eval_subset": "50-shape subset", "test": "test", "test_subjects": "unseen subjects"}
+_SPLIT_NAMES = {"eval_subset": "furthest-point subset", "test": "test", "test_subjects": "unseen subjects"}
 _KIND_NAMES = {
     "analogy": {"pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)", "body": "body transfer (a,p):(b,p)::(a,q):(b,q)"},
     "interpolation": {"pose": "one subject, pose to pose", "body": "one pose, subject to subject"},
@@ -212,7 +212,8 @@ def _encoder(depth: int) -> str:
 
 
 def results_markdown(rows: list[dict], context: dict) -> str:
-    """``results.md``: :func:`results_sections` under their headings (the context's lines first).
+    """``results.md``: :func:`~opnet.experiments.report.results_sections` under their headings (the context's lines
+    first).
 
     ``context``: ``preset``, ``machine``, ``collection``, ``eval_subset`` (its size), ``wall_seconds`` and ``budget``
     (the reproduction's budget as a dict: ``lr``, ``batch_size``, ``epochs``, ``ablation_epochs``...).
@@ -255,7 +256,8 @@ def context_markdown(context: dict) -> list[str]:
         f"Machine: {context['machine']}. Wall time so far: {context['wall_seconds']:.0f} s "
         "(data, training, evaluation; finished runs are reused, so a resumed call counts only what it did).",
         "",
-        f"Data: {context['collection']}; the 50-shape evaluation subset has {context['eval_subset']} shapes.",
+        f"Data: {context['collection']}; the furthest-point evaluation subset (the paper's 50 shapes: 5 per held-out "
+        f"sequence) has {context['eval_subset']} shapes.",
         "",
         f"Training: Adam, lr {b['lr']}, batch {b['batch_size']}, {b['epochs']} epochs for Table 1's OperatorNets "
         f"({b.get('pointnet_epochs', b['epochs'])} for the PointNet AE) and {b['ablation_epochs']} for the ablation "
@@ -371,7 +373,8 @@ def ablation_markdown(rows: list[dict], budget: dict) -> list[str]:
 
 def discretisation_markdown(rows: list[dict]) -> list[str]:
     """The different-discretisation section of ``results.md`` (lines, without its heading): d_R per encoding and
-    network, and the target."""
+    network, and the target.
+    """
     disc = [r for r in rows if r.get("table") == "discretisation"]
     if not disc:
         return []
@@ -418,7 +421,8 @@ def discretisation_markdown(rows: list[dict]) -> list[str]:
 
 def applications_markdown(rows: list[dict]) -> list[str]:
     """The applications' section of ``results.md`` (lines, without its heading): the analogy and interpolation
-    tables and their targets."""
+    tables and their targets.
+    """
     ana = [r for r in rows if r.get("table") == "analogy"]
     itp = [r for r in rows if r.get("table") == "interpolation"]
     if not ana and not itp:
@@ -501,7 +505,7 @@ def targets(t1: list[dict]) -> list[str]:
         if ours is not None and nn is not None:
             ratio = nn / ours
             lines.append(
-                f"- {_SPLIT_NAMES[split]}: NN's d_R / OperatorNet (Int+Ext)'s = {ratio:.1f} "
+                f"- {_SPLIT_NAMES[split]}: NN's d_R / OperatorNet (Int+Ext)'s = {ratio:.3g} "
                 f"({_fmt(nn, 1e4)} vs {_fmt(ours, 1e4)} ×10⁻⁴; target ≥ 10 at `default`, the paper 23): "
                 f"{'met' if ratio >= 10 else 'missed'}."
             )
