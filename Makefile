@@ -1,8 +1,8 @@
 # Two entry points, each creating the virtual environment (.venv) when it is missing:
 #   make run    executes the notebooks at a small preset into build/ (notebooks + HTML)
-#   make test   runs the unit tests and the notebooks (nbval), and builds the documentation site
+#   make test   runs the unit tests, the notebooks (nbval), the browser tests, and builds the documentation site
 # Both set OPNET_STATIC_WIDGETS=1: no kernel drives the widgets there, so notebooks show pictures instead.
-#   make test-fast  the core tier: the tests not marked slow, docs or notebooks (what to run after each edit)
+#   make test-fast  the core tier: the tests not marked slow, docs, notebooks or browser (run after each edit)
 #   make test-core  the core tier in .venv-core, an environment with opnet alone (no extras), as `pip install .`
 #   make docs   the documentation site into build/docs/ (warnings are errors, every reference must resolve;
 #               Python >= 3.11, and every extra: the API pages import the modules)
