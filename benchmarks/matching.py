@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from shape_differences import machine_info, measured, run_benchmark
+from shape_differences import load_span, machine_info, measured, run_benchmark
 
 import opnet
 
@@ -252,9 +252,8 @@ def report(result: dict) -> str:
             + " |"
         )
     out += ["", *findings(result), ""]
-    load = f"load average {m.get('loadavg_1min_at_start')} at the start, {m.get('loadavg_1min_at_end')} at the end"
     out.append(
-        f"s/map is wall time on a machine shared with other jobs ({load}): inflated when the load exceeds "
+        f"s/map is wall time on a machine shared with other jobs ({load_span(m)}): inflated when the load exceeds "
         "the cores; the errors are unaffected. " + measured(result["date"], m)
     )
     return "\n".join(out)

@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from shape_differences import machine_info, measured, run_benchmark
+from shape_differences import load_span, machine_info, measured, run_benchmark
 
 import opnet
 
@@ -314,9 +314,9 @@ def report(result: dict) -> str:
             )
     out += ["", *findings(result), ""]
     out.append(
-        f"s/shape is wall time on a machine shared with other jobs (load average {m.get('loadavg_1min_at_start')} at "
-        f"the start, {m.get('loadavg_1min_at_end')} at the end): inflated, and unevenly between rows, when the "
-        "load exceeds the cores; the CPU time much less so, and d_R not at all. " + measured(result["date"], m)
+        f"s/shape is wall time on a machine shared with other jobs ({load_span(m)}): inflated, and unevenly between "
+        "rows, when the load exceeds the cores; the CPU time much less so, and d_R not at all. "
+        + measured(result["date"], m)
     )
     return "\n".join(out)
 

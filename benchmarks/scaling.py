@@ -19,7 +19,7 @@ import os
 import time
 
 import numpy as np
-from shape_differences import machine_info, measured, run_benchmark
+from shape_differences import load_span, machine_info, measured, run_benchmark
 
 import opnet
 
@@ -103,8 +103,7 @@ def report(result: dict) -> str:
         f"- The means differ by {abs(mean_d - mean_dmi):.2g} ×10⁻⁴; the seed-to-seed standard deviation of one input "
         f"is up to {spread:.2g} ×10⁻⁴ (the difference is {within} it).",
         "",
-        f"The errors do not depend on the machine's load (load average {m.get('loadavg_1min_at_start')} at the start, "
-        f"{m.get('loadavg_1min_at_end')} at the end); the training times in the JSON do. "
+        f"The errors do not depend on the machine's load ({load_span(m)}); the training times in the JSON do. "
         + measured(result["date"], m),
     ]
     return "\n".join(out)

@@ -272,6 +272,12 @@ def measured(date: str, machine: dict) -> str:
     return f"Measured {date}: " + "; ".join(f"{k} {v}" for k, v in machine.items() if v is not None) + "."
 
 
+def load_span(machine: dict) -> str:
+    """``load average A at the start, B at the end``: the machine's 1-minute load around a measurement."""
+    start, end = machine.get("loadavg_1min_at_start"), machine.get("loadavg_1min_at_end")
+    return f"load average {start} at the start, {end} at the end"
+
+
 def save(result: dict, path) -> None:
     """Write ``result`` as JSON to ``path`` (the ``--json`` option of the benchmarks), creating its folder."""
     Path(path).parent.mkdir(parents=True, exist_ok=True)

@@ -27,7 +27,7 @@ import os
 import sys
 import time
 
-from shape_differences import machine_info, measured, run_benchmark
+from shape_differences import load_span, machine_info, measured, run_benchmark
 
 import opnet
 
@@ -148,8 +148,7 @@ def report(result: dict) -> str:
         )
     out += [
         "",
-        f"Training times are wall time on a machine shared with other jobs (load average "
-        f"{m.get('loadavg_1min_at_start')} at the start, {m.get('loadavg_1min_at_end')} at the end of the "
+        f"Training times are wall time on a machine shared with other jobs ({load_span(m)} of the "
         "last call; a run's time is the sum of its epochs', in whichever call they ran): inflated, and unevenly "
         "between rows, when the load exceeds the cores; the errors do not depend on it. " + measured(result["date"], m),
     ]
