@@ -3,7 +3,8 @@
 :func:`reproduce` builds (or reuses) the human collection of a preset, trains the networks it needs, each
 in its own run directory under ``OUT/runs/`` (a second call skips finished runs, an interrupted one
 continues from its last epoch), evaluates them beside the nearest-neighbour and base-shape baselines,
-and writes
+and writes (keeping the rows of an earlier call into ``OUT`` that this one does not measure again,
+:func:`opnet.experiments.report.merge_results`: a call with ``ablation=False`` leaves the ablation's rows there)
 
 - ``OUT/results.json``: ``{"format", "version", "context", "rows"}`` (:func:`read_results` reads it): the
   machine, data and budget, and the rows ``{"table", "method", "channels", "depth", "split", "d_R", "d_V",
@@ -41,6 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import __version__
 from ._checks import check_int
 from ._extras import require
 from .evaluate import (
@@ -69,6 +71,7 @@ from .experiments.report import (
     ablation_table,
     applications_markdown,
     discretisation_markdown,
+    merge_results,
     read_results,
     results_markdown,
     targets,
@@ -217,7 +220,9 @@ def reproduce(
     Parameters
     ----------
     preset : ``"quick"`` (minutes on a laptop CPU), ``"default"`` or ``"paper"``.
-    out : path, the output folder (default ``reproduce-<preset>``); reused to resume.
+    out : path, the output folder (default ``reproduce-<preset>``); reused to resume. Its ``results.json`` keeps
+        the rows of earlier calls (same preset and budget) that this call does not measure again, so the parts
+        of a reproduction can be run one call at a time.
     device : ``"auto"`` (CUDA when available), ``"cpu"``, ``"cuda"``.
     ablation : also train and evaluate the depth × channels grid (Appendix B).
     figures : also write the figures (PNG) under ``out/figures``.
@@ -247,6 +252,7 @@ def reproduce(
     (out / "runs").mkdir(parents=True, exist_ok=True)
     device = resolve_device(device)
     t_start = time.perf_counter()
+    earlier = read_results(out) if (out / "results.json").is_file() else None  # kept where not measured again
     coll = load_collection("humans", preset, root=data_root, progress=progress)
     info = dict(preset=preset)
 
@@ -310,11 +316,19 @@ def reproduce(
         preset=preset,
         budget=asdict(budget),
         machine=_machine(device),
+        date=time.strftime("%Y-%m-%d"),
+        opnet_version=__version__,
         collection=repr(coll),
         splits={s: int(np.sum(coll.split == s)) for s in ("train", "val", "test", "test_subjects")},
         eval_subset=int(len(coll.eval_subset)),
     )
-    write_results(out, rows, context, time.perf_counter() - t_start)
+
+    def save(rows):  # results.json/md: this call's rows, and an earlier call's that it did not measure again
+        merged, merged_context = merge_results(earlier, rows, context)
+        write_results(out, merged, merged_context, time.perf_counter() - t_start)
+        return merged
+
+    save(rows)
     if figures:
         table1_figures(
             out,
@@ -328,7 +342,7 @@ def reproduce(
     if applications:
         algebras = application_methods(coll, nets, budget, refine=refine, device=device)
         rows += applications_rows(coll, algebras, budget, out=out / "figures" if figures else None, progress=progress)
-        write_results(out, rows, context, time.perf_counter() - t_start)
+        save(rows)
 
     if ablation:
         for s in ablation_specs(budget):
@@ -336,13 +350,13 @@ def reproduce(
             m = operatornet_method(net, coll, s.label)
             m.info = dict(table="ablation", **s.fields(), **run_info)
             rows += evaluate(coll, [m], ("test",), extra=info)
-        write_results(out, rows, context, time.perf_counter() - t_start)
-        if figures:
-            plt = require("matplotlib.pyplot", "opnet.reproduce's figures")
+    rows = save(rows)
+    if ablation and figures:
+        plt = require("matplotlib.pyplot", "opnet.reproduce's figures")
 
-            fig = ablation_figure(rows)
-            fig.savefig(out / "figures" / "ablation.png", dpi=120)
-            plt.close(fig)
+        fig = ablation_figure(rows)
+        fig.savefig(out / "figures" / "ablation.png", dpi=120)
+        plt.close(fig)
     runs.close()
     return rows
 

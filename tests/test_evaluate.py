@@ -11,6 +11,7 @@ import numpy as np
 import opnet
 from opnet import evaluate, reproduce, train
 from opnet.data import toy
+from opnet.experiments.report import headline_markdown, row_identity
 
 
 @pytest.fixture(scope="module")
@@ -99,6 +100,9 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
     )
     saved, context = reproduce.read_results(tmp_path)
     assert saved == json.loads(json.dumps(rows)) and context["preset"] == "quick" and context["wall_seconds"] > 0
+    assert context["opnet_version"] == opnet.__version__ and len(context["date"]) == len("2026-12-02")
+    headline = [line.split(" | ")[0].lstrip("| ") for line in headline_markdown(saved)[2:]]  # the README's rows
+    assert headline == [*reproduce.TABLE1, *reproduce.OURS, "Nearest neighbour (Int+Ext)", "Base shape"]
     assert reproduce.results_markdown(saved, context) == (tmp_path / "results.md").read_text()  # all it needs
     t1 = [r for r in saved if r["table"] == "table1"]
     assert {(r["method"], r["split"]) for r in t1} == {
@@ -150,6 +154,33 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
         "quick", tmp_path, budget=budget, device="cpu", progress=False, figures=False, applications=False, maps=False
     )
     assert mtimes == {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
+    # a call with fewer parts keeps what the folder already measured: the ablation and the refinement rows stay
+    saved = reproduce.read_results(tmp_path)[0]  # the second call's
+    again = reproduce.reproduce(
+        "quick",
+        tmp_path,
+        budget=budget,
+        device="cpu",
+        progress=False,
+        figures=False,
+        applications=False,
+        maps=False,
+        ablation=False,
+        refine=False,
+    )
+    merged, context = reproduce.read_results(tmp_path)
+    assert merged == json.loads(json.dumps(again)) and len(merged) == len(saved)
+    assert {row_identity(r) for r in merged} == {row_identity(r) for r in saved}
+
+    def not_measured_again(r):
+        return r["table"] == "ablation" or r.get("refined") or r.get("baseline") == "geometric"
+
+    kept = [r for r in merged if not_measured_again(r)]
+    assert kept == [r for r in saved if not_measured_again(r)] and len(kept) == 28 + 6  # as the second call wrote
+    assert (
+        context["earlier"][0]["tables"] == ["ablation", "table1"]
+        and "earlier call" in (tmp_path / "results.md").read_text()
+    )
 
 
 def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatch):

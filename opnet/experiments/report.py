@@ -27,11 +27,14 @@ from .spec import RunSpec
 
 __all__ = [
     "write_results",
+    "merge_results",
+    "row_identity",
     "results_markdown",
     "results_sections",
     "SECTION_TITLES",
     "context_markdown",
     "table1_markdown",
+    "headline_markdown",
     "ablation_markdown",
     "discretisation_markdown",
     "read_results",
@@ -188,6 +191,37 @@ def write_results(out: Path, rows: list[dict], context: dict, seconds: float) ->
     atomic_write(out / "results.md", lambda f: f.write(md.encode()))
 
 
+def row_identity(row: dict) -> tuple:
+    """What one measurement is: its ``table``, method (:func:`row_key`), ``split`` and, where the table has them, the
+    encoding (``resolution``, ``maps``) and the application's ``kind``. A later measurement of the same identity
+    replaces an earlier one (:func:`merge_results`).
+    """
+    return (row.get("table"), row_key(row), row.get("split"), row.get("resolution"), row.get("maps"), row.get("kind"))
+
+
+def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], context: dict) -> tuple[list, dict]:
+    """The rows and context that a call of ``reproduce`` writes into a folder that already holds results.
+
+    ``earlier``: the folder's ``(rows, context)`` (:func:`read_results`), or ``None``. Its rows that this call did not
+    measure again (their :func:`row_identity` is not among ``rows``) are kept, before this call's, so that a call
+    with fewer parts (``--no-ablation``, ``--no-maps`` ...) adds to the folder's results instead of losing them;
+    ``context`` then lists under ``"earlier"`` the calls whose rows were kept (their date, machine, wall time and
+    tables). Results of another preset or budget are not merged: ``(rows, context)`` are returned as they are.
+    """
+    if not earlier or earlier[1] is None:
+        return rows, context
+    old_rows, old = earlier
+    if (old.get("preset"), old.get("budget")) != (context.get("preset"), context.get("budget")):
+        return rows, context
+    measured = {row_identity(r) for r in rows}
+    kept = [r for r in old_rows if row_identity(r) not in measured]
+    if not kept:
+        return rows, context
+    summary = {key: old[key] for key in ("date", "machine", "wall_seconds") if key in old}
+    summary["tables"] = sorted({str(r.get("table")) for r in kept})
+    return kept + rows, dict(context, earlier=[*old.get("earlier", []), summary])
+
+
 def read_results(path) -> tuple[list[dict], dict | None]:
     """The rows of a ``results.json`` (:func:`~opnet.experiments.report.upgrade_rows`: an older file's get their
     structured fields) and its context (``None`` for a file of before version 2, which held the rows alone).
@@ -252,10 +286,17 @@ def results_sections(rows: list[dict], context: dict) -> dict[str, list[str]]:
 def context_markdown(context: dict) -> list[str]:
     """What a reproduction ran on (lines): the machine, the wall time, the data and the training settings."""
     b = context["budget"]
+    when = f" on {context['date']} (opnet {context['opnet_version']})" if "date" in context else ""
     return [
-        f"Machine: {context['machine']}. Wall time so far: {context['wall_seconds']:.0f} s "
+        f"Machine: {context['machine']}{when}. Wall time so far: {context['wall_seconds']:.0f} s "
         "(data, training, evaluation; finished runs are reused, so a resumed call counts only what it did).",
         "",
+        *[
+            f"Rows kept from an earlier call in the same folder (its finished runs reused): the tables "
+            f"{', '.join(e['tables'])}, measured{' on ' + e['date'] if 'date' in e else ''} on {e.get('machine', '?')}."
+            for e in context.get("earlier", [])
+        ],
+        *([""] if context.get("earlier") else []),
         f"Data: {context['collection']}; the furthest-point evaluation subset (the paper's 50 shapes: 5 per held-out "
         f"sequence) has {context['eval_subset']} shapes.",
         "",
@@ -317,6 +358,40 @@ def table1_markdown(rows: list[dict]) -> list[str]:
         lines.append(
             f"{name}: evaluated on {', '.join(where)} (evenly spaced, to bound the optimisation's time; "
             "`Budget.refine_shapes`)."
+        )
+    return lines
+
+
+def headline_markdown(rows: list[dict]) -> list[str]:
+    """The README's headline Table 1 (lines): each Table 1 method evaluated on all of ``test`` and
+    ``test_subjects`` (not the "Comp" networks, nor the operator-matching rows, which run on a subset), its mean d_R
+    (×10⁻⁴), d_V and d_E on ``test``, its mean d_R on ``test_subjects`` and the paper's numbers; empty without
+    Table 1 rows.
+    """
+    t1 = [
+        r
+        for r in upgrade_rows(rows)
+        if r.get("table") == "table1"
+        and r.get("group") != "comp"
+        and not r.get("refined")
+        and r.get("baseline") != "geometric"
+    ]
+    if not t1:
+        return []
+    lines = [
+        "| method | test: d_R | d_V | d_E | unseen subjects: d_R | paper d_R / d_V / d_E |",
+        "|---|---:|---:|---:|---:|---|",
+    ]
+    for key in dict.fromkeys(row_key(r) for r in t1):
+        test = next((r for r in t1 if row_key(r) == key and r["split"] == "test"), None)
+        unseen = next((r for r in t1 if row_key(r) == key and r["split"] == "test_subjects"), None)
+        if test is None:
+            continue
+        paper = paper_table1(test)
+        lines.append(
+            f"| {test['method']} | {_fmt(test['d_R'], 1e4)} | {_fmt(test['d_V'])} | {_fmt(test['d_E'])} | "
+            f"{_fmt(None if unseen is None else unseen['d_R'], 1e4)} | "
+            f"{'–' if paper is None else ' / '.join(f'{p:g}' for p in paper)} |"
         )
     return lines
 
