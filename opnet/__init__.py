@@ -40,6 +40,8 @@ from .inner_products import (
     ConformalInnerProduct,
     ExtrinsicInnerProduct,
     InnerProduct,
+    OffsetAreaInnerProduct,
+    OffsetConformalInnerProduct,
     channel_digest,
     get_inner_product,
     register_inner_product,
@@ -48,7 +50,7 @@ from .matching import SurfaceMap, compute_map, encode
 from .mesh import Mesh, MeshError, MeshWarning, load_mesh
 from .metrics import d_E, d_R, d_V, kabsch, mesh_volume, rigid_align
 from .shape_difference import CHANNEL_SETS, KINDS, distortion_function, pinv_psd, shape_difference, shape_differences
-from .spectral import Eigenbasis, cotan_edge_weights, eigenbasis, vertex_areas
+from .spectral import Eigenbasis, cotan_edge_weights, eigenbasis, vertex_areas, vertex_normals
 
 __version__ = "0.1.0"
 
@@ -62,6 +64,7 @@ __all__ = [
     "Eigenbasis",
     "eigenbasis",
     "vertex_areas",
+    "vertex_normals",
     "cotan_edge_weights",
     "FunctionalMap",
     "fmap_from_p2p",
@@ -71,6 +74,8 @@ __all__ = [
     "AreaInnerProduct",
     "ConformalInnerProduct",
     "ExtrinsicInnerProduct",
+    "OffsetAreaInnerProduct",
+    "OffsetConformalInnerProduct",
     "INNER_PRODUCTS",
     "get_inner_product",
     "register_inner_product",

@@ -13,7 +13,7 @@ import numpy as np
 
 from .mesh import corner_edges, unique_edges
 
-__all__ = ["is_tensor", "weighted_gram", "areas", "edges", "edge_weights", "einsum"]
+__all__ = ["is_tensor", "weighted_gram", "areas", "normals", "edges", "edge_weights", "einsum"]
 
 # Entries of the column-product table built at once in numpy's batched product (bounds its memory to ~32 MB).
 _TABLE_ENTRIES = 4_000_000
@@ -68,6 +68,17 @@ def areas(vertices, faces):
     return out.index_add_(-1, faces.reshape(-1), third.reshape(*third.shape[:-2], -1))
 
 
+def normals(vertices, faces):
+    """Area-weighted unit vertex normals ``(..., n, 3)`` of vertex tensors ``(..., n, 3)`` sharing ``faces``."""
+    faces = _long(faces, vertices)
+    v = vertices[..., faces, :]  # (..., m, 3, 3)
+    cross = _cross(v[..., 1, :] - v[..., 0, :], v[..., 2, :] - v[..., 0, :])  # twice the area, along the normal
+    per_corner = cross.unsqueeze(-2).expand(*cross.shape[:-1], 3, 3)  # (..., m, 3 corners, 3)
+    out = vertices.new_zeros(vertices.shape)
+    summed = out.index_add_(-2, faces.reshape(-1), per_corner.reshape(*cross.shape[:-2], -1, 3))
+    return summed / (summed * summed).sum(-1, keepdim=True) ** 0.5
+
+
 def edges(faces):
     """The sorted unique edges ``(e, 2)`` of ``faces`` (:func:`opnet.mesh.unique_edges`), in the type of ``faces``."""
     if not is_tensor(faces):
@@ -101,6 +112,8 @@ def _cross(a, b):
 def _long(faces, like):
     import torch
 
+    if not is_tensor(faces):  # a copy: torch warns about a read-only array (a Mesh's faces)
+        faces = np.array(faces, dtype=np.int64)
     return torch.as_tensor(faces, dtype=torch.long, device=like.device)
 
 

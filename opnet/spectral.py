@@ -18,10 +18,11 @@ import scipy.sparse.linalg
 from ._backend import areas as tensor_areas
 from ._backend import edge_weights as tensor_edge_weights
 from ._backend import is_tensor
+from ._backend import normals as tensor_normals
 from ._checks import real_array
 from .mesh import Mesh, as_faces, corner_edges, face_areas, triangle_areas, unique_edges
 
-__all__ = ["Eigenbasis", "eigenbasis", "cotan_edge_weights", "vertex_areas"]
+__all__ = ["Eigenbasis", "eigenbasis", "cotan_edge_weights", "vertex_areas", "vertex_normals"]
 
 # Above this fraction of n the dense solver is cheaper and more reliable than ARPACK.
 _DENSE_FRACTION = 0.3
@@ -197,8 +198,30 @@ def vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def _vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """:func:`vertex_areas` without the argument checks (for arrays already checked)."""
-    incidence = sp.csr_matrix(
-        (np.ones(faces.size), (np.repeat(np.arange(len(faces)), 3), faces.ravel())),
-        shape=(len(faces), vertices.shape[-2]),
+    return _scatter(face_areas(vertices, faces) / 3.0, _face_incidence(faces, vertices.shape[-2]))
+
+
+def _face_incidence(faces: np.ndarray, n: int) -> sp.csr_matrix:
+    """Sparse ``(m, n)`` matrix of ones where face ``f`` has vertex ``i``: ``values @ it`` adds face values to the
+    vertices of each face (:func:`_scatter`).
+    """
+    return sp.csr_matrix(
+        (np.ones(faces.size), (np.repeat(np.arange(len(faces)), 3), faces.ravel())), shape=(len(faces), n)
     )
-    return _scatter(face_areas(vertices, faces) / 3.0, incidence)
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit vertex normals ``(..., n, 3)`` for vertices ``(..., n, 3)`` sharing ``faces`` ``(m, 3)``: at each vertex,
+    the sum of its faces' normals weighted by their areas (``Σ (b − a) × (c − a)`` over its faces), normalised.
+
+    Outward for a closed mesh whose faces are ordered counter-clockwise seen from outside. A torch tensor of
+    vertices gives a tensor, differentiable in them.
+    """
+    if is_tensor(vertices):
+        return tensor_normals(vertices, faces)
+    vertices, faces = _checked(vertices, faces)
+    corners = vertices[..., faces, :]  # (..., m, 3, 3)
+    cross = np.cross(corners[..., 1, :] - corners[..., 0, :], corners[..., 2, :] - corners[..., 0, :])  # (..., m, 3)
+    incidence = _face_incidence(faces, vertices.shape[-2])
+    summed = np.moveaxis(_scatter(np.moveaxis(cross, -1, -2), incidence), -2, -1)  # (..., n, 3)
+    return summed / np.linalg.norm(summed, axis=-1, keepdims=True)
