@@ -7,6 +7,8 @@
 #   make docs   the documentation site into build/docs/ (warnings are errors, every reference must resolve;
 #               Python >= 3.11, and every extra: the API pages import the modules)
 #   make reproduce PRESET=default   Table 1 + ablation into build/reproduce-$(PRESET) (results.json/md, figures)
+#   make ship-results  copy build/reproduce-default's results.json and figures into the package
+#               (opnet/experiments/results/default/: what the notebooks and the docs show as the shipped `default`)
 #   make benchmarks  measure again the benchmarks the docs show, into benchmarks/results/*.json (an idle machine;
 #               about 20 min on 2 cores, most of it the PointNet one); the results page's ones (matching, refinement,
 #               scaling, variants) read the default reproduction's networks: make benchmarks-results (hours)
@@ -19,7 +21,7 @@ STAMP  := $(VENV)/.installed-stamp
 # machines; an unpinned torch would pull a multi-GB CUDA build. The package accepts any recent torch.
 TORCH  ?= torch==2.13.0
 
-.PHONY: run test test-fast test-core docs reproduce benchmarks benchmarks-results clean
+.PHONY: run test test-fast test-core docs reproduce ship-results benchmarks benchmarks-results clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -65,6 +67,13 @@ docs: $(STAMP)
 
 reproduce: $(STAMP)
 	$(PY) -m opnet reproduce --preset $(PRESET) --out build/reproduce-$(PRESET)
+
+SHIPPED := opnet/experiments/results/default
+ship-results:
+	test -f build/reproduce-default/results.json || { echo "no build/reproduce-default/results.json: make reproduce PRESET=default first" >&2; exit 1; }
+	rm -rf $(SHIPPED) && mkdir -p $(SHIPPED)/figures
+	cp build/reproduce-default/results.json $(SHIPPED)/
+	cp build/reproduce-default/figures/*.png $(SHIPPED)/figures/
 
 # One script after the other, never side by side: each times the whole machine.
 benchmarks: $(STAMP)

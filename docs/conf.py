@@ -25,9 +25,10 @@ sys.path.insert(0, str(ROOT))  # the checkout's opnet, installed or not
 import opnet  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "_scripts"))
-from generated import write_benchmark_fragments  # noqa: E402
+from generated import write_benchmark_fragments, write_results_fragments  # noqa: E402
 
 write_benchmark_fragments(Path(__file__).resolve().parent / "_generated" / "benchmarks")
+write_results_fragments(Path(__file__).resolve().parent / "_generated" / "results")
 
 project = "opnet"
 author = "the opnet authors"

@@ -113,6 +113,8 @@ __all__ = [
     "POINTNET",
     "REFINE",
     "REFINE_SETS",
+    "FUNCCHAR",
+    "funcchar_method",
     "ABLATION_SETS",
     "ABLATION_DEPTHS",
     "PAPER_TABLE1",
@@ -175,6 +177,10 @@ OURS = {"OperatorNet ours (Int+Ext)": KINDS}
 REFINE = dict(channels=("area", "extrinsic"), optimizer="lbfgs", smoothness=1.0)
 #: The test sets on which the operator-matching rows are evaluated.
 REFINE_SETS = ("test", "test_subjects")
+#: FuncChar's full set of channels (Corman et al. 2017): the area and conformal operators of the shape and of its
+#: offset surface (:class:`opnet.inner_products.OffsetAreaInnerProduct`, ``OffsetConformalInnerProduct``). Its Table 1
+#: row, ``"FuncChar (Int+Ext)"``, reconstructs from the base by matching them (:func:`funcchar_method`).
+FUNCCHAR = ("area", "conformal", "offset_area", "offset_conformal")
 
 #: Table 1's "Comp" rows: OperatorNet trained and tested on operators through maps computed from each shape's
 #: :data:`COMP_RESOLUTION` mesh (:func:`opnet.matching.compute_map`), not the known correspondence.
@@ -226,7 +232,8 @@ def reproduce(
     device : ``"auto"`` (CUDA when available), ``"cpu"``, ``"cuda"``.
     ablation : also train and evaluate the depth × channels grid (Appendix B).
     figures : also write the figures (PNG) under ``out/figures``.
-    refine : also evaluate the operator-matching rows: the geometric baseline and OperatorNet + refinement
+    refine : also evaluate the operator-matching rows: the geometric baseline, FuncChar (:func:`funcchar_method`:
+        its offset channels are computed for the collection first) and OperatorNet + refinement
         (:func:`opnet.reconstruct` with :data:`REFINE`, ``budget.refine_steps`` steps, on at most
         ``budget.refine_shapes`` shapes of each of :data:`REFINE_SETS`, evenly spaced: they take seconds per shape).
     maps : also the computed-map rows: Table 1's "Comp" networks (:func:`comp_networks`; computing the maps of the
@@ -289,10 +296,16 @@ def reproduce(
     baselines = [nearest_neighbour_method(coll, KINDS), base_shape_method(coll)]
     tags = [dict(baseline="nearest_neighbour"), dict(baseline="base_shape")]
     matching = []
+    funcchar = []
     if refine:
         options = dict(REFINE, steps=budget.refine_steps, max_shapes=budget.refine_shapes, device=device)
         matching = [geometric_method(coll, **options)]
         tags.append(dict(baseline="geometric"))
+        with_offsets = coll.with_kinds([*dict.fromkeys([*coll.kinds, *FUNCCHAR])], progress=False)
+        funcchar = [funcchar_method(with_offsets, budget, device=device)]
+        funcchar[0].info = dict(
+            table="table1", baseline="funcchar", epochs=None, train_seconds=None, device=str(device)
+        )
         refined = [m for m in methods if m.channels == KINDS]
         matching += [refined_method(m, coll, **options) for m in refined]
         tags += [specs[m.name].refined_fields() for m in refined]
@@ -301,6 +314,7 @@ def reproduce(
     rows = evaluate(coll, methods + baselines, TEST_SETS, extra=info)
     rows += evaluate(comp, comp_methods, TEST_SETS, extra=info) if maps else []
     rows += evaluate(coll, matching, REFINE_SETS, extra=info)
+    rows += evaluate(with_offsets, funcchar, REFINE_SETS, extra=info) if funcchar else []
     if maps:
         rows += discretisation_rows(
             coll,
@@ -359,6 +373,27 @@ def reproduce(
         plt.close(fig)
     runs.close()
     return rows
+
+
+def funcchar_method(coll, budget: Budget, *, device="cpu"):
+    """FuncChar's reconstruction (the paper's "FuncChar (Int+Ext)" row): :func:`opnet.reconstruct` from the base
+    shape, matching the :data:`FUNCCHAR` operators with :data:`REFINE`'s optimiser and smoothness,
+    ``budget.refine_steps`` steps, on at most ``budget.refine_shapes`` shapes per test set; an
+    :class:`opnet.evaluate.Method` of ``coll``, which must hold the :data:`FUNCCHAR` channels
+    (``coll.with_kinds([*coll.kinds, "offset_area", "offset_conformal"])`` computes them and caches them beside it).
+    """
+    from .evaluate import base_shape_method, refined_method
+
+    missing = [name for name in FUNCCHAR if name not in coll.kinds]
+    if missing:
+        raise ValueError(
+            f"FuncChar matches the channels {FUNCCHAR}; this collection lacks {missing}: pass "
+            f"coll.with_kinds([*coll.kinds, {', '.join(map(repr, missing))}])."
+        )
+    options = dict(REFINE, channels=FUNCCHAR, steps=budget.refine_steps, device=device)
+    return refined_method(
+        base_shape_method(coll), coll, max_shapes=budget.refine_shapes, name="FuncChar (Int+Ext)", **options
+    )
 
 
 def spec(table: str, budget: Budget, channels=KINDS, depth: int = 1, variant: str = "paper", *, epochs=None, name=None):

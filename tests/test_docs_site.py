@@ -17,7 +17,7 @@ if sys.version_info < (3, 11):  # Sphinx 9, myst-nb and the theme need 3.11: the
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "docs" / "_scripts"))
-from generated import benchmark_report  # noqa: E402
+from generated import benchmark_report, results_fragments  # noqa: E402
 
 #: the page each shipped ``benchmarks/results/<name>.json`` is rendered on, when not the benchmarks page
 RESULT_PAGES = {"matching": "results", "refinement": "results", "scaling": "results", "variants": "results"}
@@ -47,6 +47,12 @@ def test_site_builds_with_every_reference_resolved_and_nothing_remote(docs_site,
         page = page_of[path.stem]
         missing = [c for c in cells if re.fullmatch(r"[\d,.]+", c) and f">{c}<" not in pages[page]]
         assert not missing, f"{path.name}: cells not on the {page} page: {missing[:5]}"
+    results = (out / "results.html").read_text()
+    for name, text in results_fragments("default").items():  # the shipped reproduction: each section on the page
+        cells = [c.strip().strip("*") for line in text.splitlines() if line.startswith("| ") for c in line.split("|")]
+        missing = [c for c in cells if re.fullmatch(r"[\d.]+( \([\d.]+\))?", c) and f">{c}<" not in results]
+        assert not missing, f"shipped {name}: cells not on the results page: {missing[:5]}"
+        assert cells or name not in ("table1", "ablation"), f"shipped {name}: no table"
     for page in out.rglob("*.html"):  # offline: no script, stylesheet, font or picture fetched at view time
         assert not REMOTE_ASSET.search(page.read_text()), f"{page.relative_to(out)} loads a remote asset"
 

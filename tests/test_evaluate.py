@@ -111,10 +111,18 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
         for s in evaluate.TEST_SETS
     } | {
         (m, s)
-        for m in ["Geometric (A+E)", "OperatorNet (Int+Ext) + refinement", "OperatorNet ours (Int+Ext) + refinement"]
+        for m in [
+            "Geometric (A+E)",
+            "FuncChar (Int+Ext)",
+            "OperatorNet (Int+Ext) + refinement",
+            "OperatorNet ours (Int+Ext) + refinement",
+        ]
         for s in reproduce.REFINE_SETS
     }
-    refined = [r for r in t1 if r["method"].endswith("refinement") or r["method"].startswith("Geometric")]
+    refined = [r for r in t1 if r.get("refined") or r.get("baseline") in ("geometric", "funcchar")]
+    assert len(refined) == 8 and {tuple(r["channels"]) for r in refined if r.get("baseline") == "funcchar"} == {
+        reproduce.FUNCCHAR
+    }
     assert all(r["n_shapes"] == 3 for r in refined)  # at most refine_shapes per test set
     assert all(np.isfinite(r["d_R_before"]) for r in refined if r["method"].endswith("refinement"))
     abl = [r for r in saved if r["table"] == "ablation"]
@@ -138,6 +146,7 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
     md = (tmp_path / "results.md").read_text()
     assert "OperatorNet (Int+Ext)" in md and "1.11" in md and "Ablation" in md and "8.61" in md
     assert "OperatorNet ours (Int+Ext)" in md and "s/shape" in md and "refinement changes" in md
+    assert "FuncChar (Int+Ext)'s d_R / OperatorNet (Int+Ext)'s" in md and "28.4" in md  # beside the paper's
     for name in (
         "training_curves",
         "ablation",
@@ -173,10 +182,10 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
     assert {row_identity(r) for r in merged} == {row_identity(r) for r in saved}
 
     def not_measured_again(r):
-        return r["table"] == "ablation" or r.get("refined") or r.get("baseline") == "geometric"
+        return r["table"] == "ablation" or r.get("refined") or r.get("baseline") in ("geometric", "funcchar")
 
     kept = [r for r in merged if not_measured_again(r)]
-    assert kept == [r for r in saved if not_measured_again(r)] and len(kept) == 28 + 6  # as the second call wrote
+    assert kept == [r for r in saved if not_measured_again(r)] and len(kept) == 28 + 8  # as the second call wrote
     assert (
         context["earlier"][0]["tables"] == ["ablation", "table1"]
         and "earlier call" in (tmp_path / "results.md").read_text()
@@ -236,7 +245,11 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatc
         maps=False,
     )
     assert latest.stat().st_mtime == mtime  # the finished PointNet run is reused, not retrained
-    assert "OperatorNet (mult.) + refinement" not in {r["method"] for r in again if r["table"] == "analogy"}
+    refined = [
+        r for r in json.loads(json.dumps(rows)) if r["table"] in ("analogy", "interpolation") and r.get("refined")
+    ]
+    assert refined and [r for r in again if r.get("refined") and r["table"] != "table1"] == refined  # kept as they were
+    assert "analogy" in reproduce.read_results(tmp_path)[1]["earlier"][0]["tables"]  # and said to come from before
 
 
 def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypatch, tiny_collection):

@@ -1,9 +1,14 @@
-"""The docs' generated fragments: every shipped benchmark result rendered by its own script's ``report``.
+"""The docs' generated fragments: every shipped result rendered by the code that also prints it.
 
-``benchmarks/results/<script>.json`` is what ``benchmarks/<script>.py --json`` wrote on the machine it names
-(``make benchmarks`` measures them all again); :func:`write_benchmark_fragments` renders each with that script's
-``report(result)``, the function that also prints it, into ``docs/_generated/benchmarks/<script>.md``, which the
-pages include. ``docs/conf.py`` calls it at every build, so a page cannot drift from its file.
+- ``benchmarks/results/<script>.json`` is what ``benchmarks/<script>.py --json`` wrote on the machine it names
+  (``make benchmarks`` measures them all again); :func:`write_benchmark_fragments` renders each with that script's
+  ``report(result)`` into ``docs/_generated/benchmarks/<script>.md``.
+- The shipped reproduction (``opnet.experiments.shipped``: the ``results.json`` and figures of ``python -m opnet
+  reproduce --preset default``): :func:`write_results_fragments` renders each section of its ``results.md``
+  (``opnet.experiments.report.results_sections``) into ``docs/_generated/results/<section>.md`` and copies its
+  figures to ``docs/_generated/results/figures/``.
+
+``docs/conf.py`` calls both at every build, so a page cannot drift from its file.
 """
 
 from __future__ import annotations
@@ -14,6 +19,8 @@ import sys
 from pathlib import Path
 
 import opnet
+from opnet.experiments.report import SECTION_TITLES, results_sections
+from opnet.experiments.shipped import shipped_figure, shipped_figures, shipped_results
 
 #: The benchmarks of the checkout whose opnet the docs document (also when a copy of docs/ is built).
 BENCHMARKS = Path(opnet.__file__).resolve().parents[1] / "benchmarks"
@@ -43,8 +50,38 @@ def write_benchmark_fragments(out: Path) -> list[Path]:
     written = []
     for path in sorted(SHIPPED.glob("*.json")):
         target = out / f"{path.stem}.md"
-        text = benchmark_report(path.stem) + "\n"
-        if not target.exists() or target.read_text() != text:  # unchanged files keep their time: no rebuild
-            target.write_text(text)
+        written.append(_write_if_changed(target, benchmark_report(path.stem) + "\n"))
+    return written
+
+
+def _write_if_changed(target: Path, text: str) -> Path:
+    if not target.exists() or target.read_text() != text:  # unchanged files keep their time: no rebuild
+        target.write_text(text)
+    return target
+
+
+def results_fragments(preset: str = "default") -> dict[str, str]:
+    """Name → Markdown of the shipped reproduction at ``preset``: each section of its ``results.md`` (every name of
+    ``SECTION_TITLES``; a section the shipped run has no rows for says so).
+    """
+    rows, context = shipped_results(preset)
+    sections = results_sections(rows, context)
+    missing = (
+        f"*Not in the shipped `{preset}` reproduction yet* (its context above says what it ran); "
+        f"`python -m opnet reproduce --preset {preset}` computes it."
+    )
+    return {name: "\n".join(sections.get(name) or [missing]) + "\n" for name in SECTION_TITLES}
+
+
+def write_results_fragments(out: Path, preset: str = "default") -> list[Path]:
+    """Write ``out/<name>.md`` for every :func:`results_fragments` and copy the shipped figures to
+    ``out/figures/<name>.png``; the paths written.
+    """
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    written = [_write_if_changed(out / f"{name}.md", text) for name, text in results_fragments(preset).items()]
+    for name in shipped_figures(preset):
+        target, data = out / "figures" / f"{name}.png", shipped_figure(name, preset).read_bytes()
+        if not target.exists() or target.read_bytes() != data:
+            target.write_bytes(data)
         written.append(target)
     return written

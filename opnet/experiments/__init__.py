@@ -10,12 +10,14 @@ ablation over any channels (:func:`~opnet.experiments.runner.ablation`).
     rows = opnet.experiments.evaluate_runs(runs, coll, ("val",))
     table = opnet.ablation(coll, channel_sets=[["area"], ["area", MyIP()]], depths=[1, 2], epochs=20)
 
-:mod:`opnet.reproduce` declares the paper's networks this way and runs them with the same runner.
+:mod:`opnet.reproduce` declares the paper's networks this way and runs them with the same runner;
+:func:`~opnet.experiments.shipped.shipped_results` reads the `default` reproduction that ships with opnet.
 """
 
 from .paper import PAPER_ABLATION, PAPER_TABLE1
 from .report import results_markdown
 from .runner import Results, Run, ablation, evaluate_runs, train_run
+from .shipped import shipped_figure, shipped_results
 from .spec import RunSpec
 
 __all__ = [
@@ -26,6 +28,8 @@ __all__ = [
     "evaluate_runs",
     "ablation",
     "results_markdown",
+    "shipped_results",
+    "shipped_figure",
     "PAPER_TABLE1",
     "PAPER_ABLATION",
 ]

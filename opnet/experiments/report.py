@@ -72,6 +72,7 @@ PAPER_TABLE1_ROWS = {
     "Nearest neighbour (Int+Ext)": dict(baseline="nearest_neighbour", channels=KINDS),
     "OperatorNet (Comp)(Ext)": _network(("extrinsic",), "comp"),
     "OperatorNet (Comp)(Int+Ext)": _network(KINDS, "comp"),
+    "FuncChar (Int+Ext)": dict(baseline="funcchar"),
 }
 _PAPER = PAPER_TABLE1_ROWS["OperatorNet (Int+Ext)"]  # the paper's network: Table 1's reference
 _OURS = dict(_PAPER, variant="ours")  # this project's variant, on the same input
@@ -374,7 +375,7 @@ def headline_markdown(rows: list[dict]) -> list[str]:
         if r.get("table") == "table1"
         and r.get("group") != "comp"
         and not r.get("refined")
-        and r.get("baseline") != "geometric"
+        and r.get("baseline") not in ("geometric", "funcchar")
     ]
     if not t1:
         return []
@@ -609,6 +610,15 @@ def targets(t1: list[dict]) -> list[str]:
             )
     truth = get(_PAPER, "test")
     reference = PAPER_TABLE1["OperatorNet (Int+Ext)"][0]
+    funcchar, geometric = _find(t1, "test", baseline="funcchar"), _find(t1, "test", baseline="geometric")
+    if funcchar is not None and truth is not None:
+        published = PAPER_TABLE1["FuncChar (Int+Ext)"][0] / reference
+        other = f"; Geometric (A+E): {_fmt(geometric['d_R'], 1e4)}" if geometric is not None else ""
+        lines.append(
+            f"- test: FuncChar (Int+Ext)'s d_R / OperatorNet (Int+Ext)'s = {funcchar['d_R'] / truth:.3g} "
+            f"({_fmt(funcchar['d_R'], 1e4)} on {funcchar['n_shapes']} shapes vs {_fmt(truth, 1e4)} ×10⁻⁴; the paper "
+            f"{published:.3g}{other})."
+        )
     for comp_row in (r for r in t1 if r["split"] == "test" and matches(r, group="comp", refined=None)):
         channels = row_channels(comp_row)
         comp, same = comp_row.get("d_R"), get(_network(channels), "test")

@@ -1,0 +1,56 @@
+"""The shipped `default` reproduction (opnet.experiments.shipped): it reads, it holds what the notebooks and the docs
+show, it travels with the package, and asking for what is not shipped says what is.
+"""
+
+import fnmatch
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tomllib
+
+from opnet.experiments import report, shipped
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER_NETWORKS = {"A+E+C": ("area", "conformal", "extrinsic"), "Int": ("area", "conformal"), "Ext": ("extrinsic",)}
+
+
+def test_the_shipped_default_holds_table1_and_the_ablation():
+    rows, context = shipped.shipped_results("default")
+    assert context["preset"] == "default" and context["machine"] and context["budget"]["epochs"] > 0
+    for channels in PAPER_NETWORKS.values():  # Table 1's networks, on both test sets, with finite errors
+        for split in ("test", "test_subjects"):
+            fields = dict(table="table1", architecture="operatornet", variant="paper", group="table1", refined=None)
+            row = next(r for r in rows if r["split"] == split and report.matches(r, channels=channels, **fields))
+            assert 0 < row["d_R"] < 1e-2 and 0 < row["d_E"] < 1, row["method"]
+    for baseline in ("nearest_neighbour", "base_shape"):
+        assert any(r.get("baseline") == baseline and r["split"] == "test" for r in rows)
+    table = report.ablation_table(rows)
+    assert table.shape == (4, 7) and np.isfinite(table).all() and (table > 0).all()
+    sections = report.results_sections(rows, context)
+    assert {"context", "table1", "targets", "ablation"} <= set(sections)
+
+
+def test_every_shipped_figure_is_a_png():
+    names = shipped.shipped_figures("default")
+    assert {"ablation", "training_curves"} <= set(names)
+    for name in names:
+        assert shipped.shipped_figure(name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+
+
+def test_what_is_not_shipped_is_named():
+    with pytest.raises(FileNotFoundError, match="shipped: \\['default'"):
+        shipped.shipped_results("paper")
+    with pytest.raises(FileNotFoundError, match="ablation"):  # the message lists the figures there are
+        shipped.shipped_figure("no_such_figure")
+
+
+def test_the_package_data_covers_every_shipped_file():
+    """pyproject's package-data patterns match every file under opnet/experiments/results, so a wheel (and a
+    `pip install opnet`) carries the shipped reproduction, not only a checkout."""
+    patterns = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
+    package = ROOT / "opnet" / "experiments"
+    files = [p.relative_to(package).as_posix() for p in (package / "results").rglob("*") if p.is_file()]
+    assert files
+    uncovered = [f for f in files if not any(fnmatch.fnmatch(f, pat) for pat in patterns["opnet.experiments"])]
+    assert not uncovered
