@@ -76,7 +76,10 @@ def normals(vertices, faces):
     per_corner = cross.unsqueeze(-2).expand(*cross.shape[:-1], 3, 3)  # (..., m, 3 corners, 3)
     out = vertices.new_zeros(vertices.shape)
     summed = out.index_add_(-2, faces.reshape(-1), per_corner.reshape(*cross.shape[:-2], -1, 3))
-    return summed / (summed * summed).sum(-1, keepdim=True) ** 0.5
+    import torch
+
+    tiny = torch.finfo(summed.dtype).tiny  # a vertex without area: a zero normal, not NaN
+    return summed / (summed * summed).sum(-1, keepdim=True).clamp_min(tiny) ** 0.5
 
 
 def edges(faces):

@@ -224,4 +224,4 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     cross = np.cross(corners[..., 1, :] - corners[..., 0, :], corners[..., 2, :] - corners[..., 0, :])  # (..., m, 3)
     incidence = _face_incidence(faces, vertices.shape[-2])
     summed = np.moveaxis(_scatter(np.moveaxis(cross, -1, -2), incidence), -2, -1)  # (..., n, 3)
-    return summed / np.linalg.norm(summed, axis=-1, keepdims=True)
+    return summed / np.maximum(np.linalg.norm(summed, axis=-1, keepdims=True), 1e-300)  # 0, not NaN, where none

@@ -67,8 +67,8 @@ def results_fragments(preset: str = "default") -> dict[str, str]:
     rows, context = shipped_results(preset)
     sections = results_sections(rows, context)
     missing = (
-        f"*Not in the shipped `{preset}` reproduction yet* (its context above says what it ran); "
-        f"`python -m opnet reproduce --preset {preset}` computes it."
+        f"*Not in the shipped `{preset}` reproduction yet*; `python -m opnet reproduce --preset {preset}` computes "
+        "it (a call with only that part, into a copy of the shipped folder, adds it to the rest)."
     )
     return {name: "\n".join(sections.get(name) or [missing]) + "\n" for name in SECTION_TITLES}
 

@@ -197,30 +197,51 @@ def row_identity(row: dict) -> tuple:
     encoding (``resolution``, ``maps``) and the application's ``kind``. A later measurement of the same identity
     replaces an earlier one (:func:`merge_results`).
     """
-    return (row.get("table"), row_key(row), row.get("split"), row.get("resolution"), row.get("maps"), row.get("kind"))
+    return (
+        row.get("table"),
+        row_key(row),
+        row.get("split"),
+        row.get("resolution"),
+        row.get("maps"),
+        row.get("kind"),
+        row.get("scheme"),
+    )
 
 
 def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], context: dict) -> tuple[list, dict]:
     """The rows and context that a call of ``reproduce`` writes into a folder that already holds results.
 
     ``earlier``: the folder's ``(rows, context)`` (:func:`read_results`), or ``None``. Its rows that this call did not
-    measure again (their :func:`row_identity` is not among ``rows``) are kept, before this call's, so that a call
-    with fewer parts (``--no-ablation``, ``--no-maps`` ...) adds to the folder's results instead of losing them;
-    ``context`` then lists under ``"earlier"`` the calls whose rows were kept (their date, machine, wall time and
-    tables). Results of another preset or budget are not merged: ``(rows, context)`` are returned as they are.
+    measure again (their :func:`row_identity` is not among ``rows``) are kept, in their place (a re-measured row
+    takes its old one's place, new ones come last), so that a call with fewer parts (``--no-ablation``,
+    ``--no-maps`` ...) adds to the folder's results instead of losing them; ``context`` then lists under
+    ``"earlier"`` the earlier call (its date, machine, wall time and the tables of the rows kept) and the calls it
+    listed itself: a chain of calls is listed whole, without telling which of them measured each kept row.
+    Results of another preset, budget or collection are not merged (a warning says so): ``(rows, context)`` are
+    returned as they are.
     """
     if not earlier or earlier[1] is None:
         return rows, context
     old_rows, old = earlier
-    if (old.get("preset"), old.get("budget")) != (context.get("preset"), context.get("budget")):
+    same = ("preset", "budget", "collection", "splits")
+    if any(old.get(key) != context.get(key) for key in same):
+        import warnings
+
+        warnings.warn(
+            f"results.json holds {len(old_rows)} rows of another preset, budget or collection; they are replaced, "
+            "not merged (run into another folder to keep them).",
+            stacklevel=2,
+        )
         return rows, context
-    measured = {row_identity(r) for r in rows}
-    kept = [r for r in old_rows if row_identity(r) not in measured]
+    new = {row_identity(r): r for r in rows}
+    merged = [new.pop(row_identity(r), r) for r in old_rows]  # re-measured rows replace theirs, in place
+    kept = [r for r in old_rows if row_identity(r) not in {row_identity(q) for q in rows}]
+    merged += [r for r in rows if row_identity(r) in new]  # this call's new rows, in its order
     if not kept:
-        return rows, context
+        return merged, context
     summary = {key: old[key] for key in ("date", "machine", "wall_seconds") if key in old}
     summary["tables"] = sorted({str(r.get("table")) for r in kept})
-    return kept + rows, dict(context, earlier=[*old.get("earlier", []), summary])
+    return merged, dict(context, earlier=[*old.get("earlier", []), summary])
 
 
 def read_results(path) -> tuple[list[dict], dict | None]:
@@ -294,7 +315,8 @@ def context_markdown(context: dict) -> list[str]:
         "",
         *[
             f"Rows kept from an earlier call in the same folder (its finished runs reused): the tables "
-            f"{', '.join(e['tables'])}, measured{' on ' + e['date'] if 'date' in e else ''} on {e.get('machine', '?')}."
+            f"{', '.join(e['tables'])}, measured{' on ' + e['date'] if 'date' in e else ''} on {e.get('machine', '?')}"
+            f"{', wall time {:.0f} s'.format(e['wall_seconds']) if 'wall_seconds' in e else ''}."
             for e in context.get("earlier", [])
         ],
         *([""] if context.get("earlier") else []),
@@ -337,7 +359,7 @@ def table1_markdown(rows: list[dict]) -> list[str]:
                 if r
                 else ["–"] * 3
             )
-            full = next((q["n_shapes"] for q in t1 if q["split"] == s and row_key(q) == keys[0]), None)
+            full = max((q["n_shapes"] for q in t1 if q["split"] == s), default=None)  # the whole test set
             if r and full is not None and r["n_shapes"] < full:
                 where = f"{r['n_shapes']} of the {full} shapes of {_SPLIT_NAMES[s]}"
                 subsampled.setdefault(key, (name, []))[1].append(where)
