@@ -60,9 +60,7 @@ def weighted_gram(phi, weights):
 
 def areas(vertices, faces):
     """Barycentric lumped mass ``(..., n)`` (length²) of vertex tensors ``(..., n, 3)`` sharing ``faces`` ``(m, 3)``."""
-    faces = _long(faces, vertices)
-    v = vertices[..., faces, :]  # (..., m, 3, 3)
-    cross = _cross(v[..., 1, :] - v[..., 0, :], v[..., 2, :] - v[..., 0, :])
+    faces, cross = _face_cross(vertices, faces)
     third = ((cross * cross).sum(-1) ** 0.5 / 6.0).unsqueeze(-1).expand(*cross.shape[:-1], 3)
     out = vertices.new_zeros(vertices.shape[:-1])
     return out.index_add_(-1, faces.reshape(-1), third.reshape(*third.shape[:-2], -1))
@@ -70,9 +68,7 @@ def areas(vertices, faces):
 
 def normals(vertices, faces):
     """Area-weighted unit vertex normals ``(..., n, 3)`` of vertex tensors ``(..., n, 3)`` sharing ``faces``."""
-    faces = _long(faces, vertices)
-    v = vertices[..., faces, :]  # (..., m, 3, 3)
-    cross = _cross(v[..., 1, :] - v[..., 0, :], v[..., 2, :] - v[..., 0, :])  # twice the area, along the normal
+    faces, cross = _face_cross(vertices, faces)
     per_corner = cross.unsqueeze(-2).expand(*cross.shape[:-1], 3, 3)  # (..., m, 3 corners, 3)
     out = vertices.new_zeros(vertices.shape)
     summed = out.index_add_(-2, faces.reshape(-1), per_corner.reshape(*cross.shape[:-2], -1, 3))
@@ -104,6 +100,13 @@ def edge_weights(vertices, faces):
     cot = torch.stack(cots, dim=-1)  # (..., m, 3): the corner order of the sparse corner-to-edge matrix
     out = vertices.new_zeros(*vertices.shape[:-2], int(corner_edge.max()) + 1)
     return out.index_add_(-1, corner_edge, 0.5 * cot.reshape(*cot.shape[:-2], -1))
+
+
+def _face_cross(vertices, faces):
+    """``(faces as a long tensor, (b − a) × (c − a) per face (..., m, 3))``: twice each face's area along its normal."""
+    faces = _long(faces, vertices)
+    v = vertices[..., faces, :]  # (..., m, 3, 3)
+    return faces, _cross(v[..., 1, :] - v[..., 0, :], v[..., 2, :] - v[..., 0, :])
 
 
 def _cross(a, b):

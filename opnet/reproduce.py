@@ -301,15 +301,13 @@ def reproduce(
         options = dict(REFINE, steps=budget.refine_steps, max_shapes=budget.refine_shapes, device=device)
         matching = [geometric_method(coll, **options)]
         tags.append(dict(baseline="geometric"))
-        with_offsets = coll.with_kinds([*dict.fromkeys([*coll.kinds, *FUNCCHAR])], progress=False)
-        funcchar = [funcchar_method(with_offsets, budget, device=device)]
-        funcchar[0].info = dict(
-            table="table1", baseline="funcchar", epochs=None, train_seconds=None, device=str(device)
-        )
         refined = [m for m in methods if m.channels == KINDS]
         matching += [refined_method(m, coll, **options) for m in refined]
         tags += [specs[m.name].refined_fields() for m in refined]
-    for m, tag in zip(baselines + matching, tags, strict=True):
+        with_offsets = coll.with_kinds([*dict.fromkeys([*coll.kinds, *FUNCCHAR])], progress=False)
+        funcchar = [funcchar_method(with_offsets, budget, device=device)]  # evaluated on with_offsets
+        tags.append(dict(baseline="funcchar"))
+    for m, tag in zip(baselines + matching + funcchar, tags, strict=True):
         m.info = dict(table="table1", **tag, epochs=None, train_seconds=None, device=str(device))
     rows = evaluate(coll, methods + baselines, TEST_SETS, extra=info)
     rows += evaluate(comp, comp_methods, TEST_SETS, extra=info) if maps else []

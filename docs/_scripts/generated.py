@@ -54,9 +54,10 @@ def write_benchmark_fragments(out: Path) -> list[Path]:
     return written
 
 
-def _write_if_changed(target: Path, text: str) -> Path:
-    if not target.exists() or target.read_text() != text:  # unchanged files keep their time: no rebuild
-        target.write_text(text)
+def _write_if_changed(target: Path, content: str | bytes) -> Path:
+    data = content.encode() if isinstance(content, str) else content
+    if not target.exists() or target.read_bytes() != data:  # unchanged files keep their time: no rebuild
+        target.write_bytes(data)
     return target
 
 
@@ -80,8 +81,5 @@ def write_results_fragments(out: Path, preset: str = "default") -> list[Path]:
     (out / "figures").mkdir(parents=True, exist_ok=True)
     written = [_write_if_changed(out / f"{name}.md", text) for name, text in results_fragments(preset).items()]
     for name in shipped_figures(preset):
-        target, data = out / "figures" / f"{name}.png", shipped_figure(name, preset).read_bytes()
-        if not target.exists() or target.read_bytes() != data:
-            target.write_bytes(data)
-        written.append(target)
+        written.append(_write_if_changed(out / "figures" / f"{name}.png", shipped_figure(name, preset).read_bytes()))
     return written

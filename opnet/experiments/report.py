@@ -234,9 +234,11 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
         )
         return rows, context
     new = {row_identity(r): r for r in rows}
-    merged = [new.pop(row_identity(r), r) for r in old_rows]  # re-measured rows replace theirs, in place
-    kept = [r for r in old_rows if row_identity(r) not in {row_identity(q) for q in rows}]
-    merged += [r for r in rows if row_identity(r) in new]  # this call's new rows, in its order
+    old_ids = [row_identity(r) for r in old_rows]
+    merged = [new.get(i, r) for i, r in zip(old_ids, old_rows)]  # re-measured rows replace theirs, in place
+    kept = [r for i, r in zip(old_ids, old_rows) if i not in new]
+    seen = set(old_ids)
+    merged += [r for i, r in new.items() if i not in seen]  # this call's new rows, in its order
     if not kept:
         return merged, context
     summary = {key: old[key] for key in ("date", "machine", "wall_seconds") if key in old}

@@ -43,8 +43,7 @@ def shipped_results(preset: str = "default") -> tuple[list[dict], dict]:
 
     Raises :class:`FileNotFoundError`, naming the presets that are shipped, when ``preset`` is not.
     """
-    rows, context = read_results(_folder(preset) / "results.json")
-    return rows, context
+    return read_results(_folder(preset) / "results.json")
 
 
 def shipped_figures(preset: str = "default") -> list[str]:
