@@ -11,12 +11,26 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _memo
 from .mesh import corner_edges, unique_edges
 
-__all__ = ["is_tensor", "weighted_gram", "areas", "normals", "edges", "edge_weights", "einsum"]
+__all__ = [
+    "is_tensor",
+    "weighted_gram",
+    "project_columns",
+    "left_multiply",
+    "stack",
+    "areas",
+    "normals",
+    "edges",
+    "edge_weights",
+    "einsum",
+]
 
-# Entries of the column-product table built at once in numpy's batched product (bounds its memory to ~32 MB).
+# Entries of the column-product table built at once in numpy's batched product (bounds its memory to ~32 MB), and
+# of a whole table kept for the next batch on the same basis (~128 MB: k = 60 on up to ~8700 rows).
 _TABLE_ENTRIES = 4_000_000
+_KEPT_TABLE_ENTRIES = 16_000_000
 
 
 def is_tensor(x) -> bool:
@@ -33,12 +47,40 @@ def einsum(spec: str, *operands):
     return np.einsum(spec, *operands)
 
 
+def stack(arrays, axis: int):
+    """``numpy.stack`` or ``torch.stack``, by the first array's type."""
+    if is_tensor(arrays[0]):
+        import torch
+
+        return torch.stack(arrays, dim=axis)
+    return np.stack(arrays, axis=axis)
+
+
+def project_columns(phi, columns):
+    """``Φᵀ c`` ``(..., k, c)`` for ``Φ`` ``(n, k)`` and columns ``(..., n, c)``: numpy as one matrix product over the
+    whole batch (a broadcast product loops over it, and with a transposed ``Φ`` leaves BLAS), torch batched.
+    """
+    if is_tensor(columns) or columns.ndim == 2:
+        return phi.T @ columns
+    n, lead, c = columns.shape[-2], columns.shape[:-2], columns.shape[-1]
+    flat = np.moveaxis(columns, -2, 0).reshape(n, -1)  # (n, ... · c)
+    return np.moveaxis((phi.T @ flat).reshape(phi.shape[1], *lead, c), 0, -2)
+
+
+def left_multiply(matrix, batch):
+    """``M @ X_b`` ``(B, k, k')`` for one ``M`` ``(k, k)`` and a numpy batch ``(B, k, k')``, as one matrix product."""
+    k, b, c = batch.shape[1], batch.shape[0], batch.shape[2]
+    flat = np.moveaxis(batch, 0, 1).reshape(k, b * c)
+    return np.moveaxis((matrix @ flat).reshape(matrix.shape[0], b, c), 1, 0)
+
+
 def weighted_gram(phi, weights):
     """``Φᵀ diag(w) Φ`` ``(..., k, k)`` for ``Φ`` ``(p, k)`` and weights ``(..., p)``.
 
     numpy: for a batch of weight vectors the product is linear in ``w``, one matrix product ``w @ T`` with the
-    table ``T[p, (i, j)] = Φ[p, i] Φ[p, j]`` (upper triangle, built in chunks of rows), several times faster
-    than one product per shape. torch: one batched product (autograd through ``w``).
+    table ``T[p, (i, j)] = Φ[p, i] Φ[p, j]`` (upper triangle), several times faster than one product per shape;
+    the table is kept for the next call with the same ``Φ`` (built in chunks of rows, and not kept, when large).
+    torch: one batched product (autograd through ``w``).
     """
     if is_tensor(weights):
         return (phi.T * weights.unsqueeze(-2)) @ phi
@@ -47,15 +89,22 @@ def weighted_gram(phi, weights):
     k = phi.shape[1]
     iu, ju = np.triu_indices(k)
     flat = weights.reshape(-1, weights.shape[-1])
-    upper = np.zeros((len(flat), len(iu)))
-    step = max(1, _TABLE_ENTRIES // len(iu))
-    for s in range(0, phi.shape[0], step):
-        rows = phi[s : s + step]
-        upper += flat[:, s : s + step] @ (rows[:, iu] * rows[:, ju])
+    if phi.shape[0] * len(iu) <= _KEPT_TABLE_ENTRIES:  # the table of a basis is built once, then reused
+        upper = flat @ _memo.by_content("gram table", (phi,), lambda: _gram_table(phi, iu, ju))
+    else:
+        upper = np.zeros((len(flat), len(iu)))
+        step = max(1, _TABLE_ENTRIES // len(iu))
+        for s in range(0, phi.shape[0], step):
+            upper += flat[:, s : s + step] @ _gram_table(phi[s : s + step], iu, ju)
     out = np.empty((len(flat), k, k))
     out[:, iu, ju] = upper
     out[:, ju, iu] = upper
     return out.reshape(*weights.shape[:-1], k, k)
+
+
+def _gram_table(phi, iu, ju):
+    """``T[p, (i, j)] = Φ[p, i] Φ[p, j]`` ``(p, len(iu))`` over the upper triangle ``(iu, ju)``."""
+    return phi[:, iu] * phi[:, ju]
 
 
 def areas(vertices, faces):
@@ -139,7 +188,7 @@ def _topology(faces):
             _TOPOLOGY.clear()
         e = unique_edges(f)
         _TOPOLOGY[key] = (
-            torch.as_tensor(e, dtype=torch.long, device=faces.device),
+            torch.tensor(e, dtype=torch.long, device=faces.device),  # a copy: e is read-only (kept)
             torch.as_tensor(corner_edges(f, e), dtype=torch.long, device=faces.device),
         )
     return _TOPOLOGY[key]

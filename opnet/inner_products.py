@@ -39,7 +39,7 @@ import numpy as np
 
 from . import _backend as B
 from ._checks import describe
-from .spectral import cotan_edge_weights, vertex_areas, vertex_normals
+from .spectral import areas_and_cotan_weights, cotan_edge_weights, vertex_areas, vertex_normals
 
 __all__ = [
     "InnerProduct",
@@ -63,6 +63,8 @@ __all__ = [
     "channel_identity",
     "rigid_motion_change",
     "checked_gram",
+    "batch_grams",
+    "BUILT_IN_TYPES",
 ]
 
 
@@ -280,14 +282,16 @@ def _conformal_gram(vertices, faces, evecs):
 
 def _extrinsic_gram(evecs, a, vertices):
     """``Φᵀ E^D Φ`` for masses ``a`` ``(..., n)`` at positions ``(..., n, 3)`` (numpy or torch)."""
-    # distances are translation invariant: centring first avoids cancellation
-    v = vertices - (a[..., None] * vertices).sum(-2)[..., None, :] / a.sum(-1)[..., None, None]
-    u = a * (v * v).sum(-1)
+    total = a.sum(-1)[..., None]
+    # distances are translation invariant: centring first avoids cancellation, and makes Σ a v = 0
+    v = vertices - (B.einsum("...n,...ni->...i", a, vertices) / total)[..., None, :]
+    u = a * B.einsum("...ni,...ni->...n", v, v)
     y = a[..., None] * v  # (..., n, 3)
-    rowsum = u * a.sum(-1)[..., None] + a * u.sum(-1)[..., None] - 2 * B.einsum("...ni,...i->...n", y, y.sum(-2))
-    pa, pu, py = evecs.T @ a[..., None], evecs.T @ u[..., None], evecs.T @ y  # (..., k, 1|3)
-    low_rank = pu @ pa.swapaxes(-1, -2) + pa @ pu.swapaxes(-1, -2) - 2 * py @ py.swapaxes(-1, -2)
-    return B.weighted_gram(evecs, rowsum) - low_rank
+    rowsum = u * total + a * u.sum(-1)[..., None]  # E 1 = u Σa + a Σu − 2 Y Σy, and Σy = Σ a v = 0
+    p = B.project_columns(evecs, B.stack([a, u, y[..., 0], y[..., 1], y[..., 2]], -1))  # Φᵀ (a, u, Y): (..., k, 5)
+    left = p[..., [1, 0, 2, 3, 4]]
+    left[..., 2:] *= -2  # Φᵀ E Φ = (Φᵀu)(Φᵀa)ᵀ + (Φᵀa)(Φᵀu)ᵀ − 2 (ΦᵀY)(ΦᵀY)ᵀ, one product
+    return B.weighted_gram(evecs, rowsum) - left @ p.swapaxes(-1, -2)
 
 
 def get_inner_products(kinds) -> list[InnerProduct]:
@@ -328,6 +332,31 @@ def checked_gram(ip: InnerProduct, method: str, *args) -> np.ndarray:
     return K
 
 
+def batch_grams(ips, vertices: np.ndarray, faces: np.ndarray, evecs: np.ndarray) -> list:
+    """``Φᵀ M_b Φ`` ``(B, k, k)`` of each inner product in ``ips`` for shapes ``(B, n, 3)`` sharing ``faces`` (the
+    fast path's batch). The paper's three built-ins share one pass over the faces (their operators need only the
+    vertex areas and the cotan weights); any other is its :meth:`~InnerProduct.project_batch`, checked
+    (:func:`checked_gram`).
+    """
+    shared = {type(ip) for ip in ips} & {AreaInnerProduct, ConformalInnerProduct, ExtrinsicInnerProduct}
+    if ConformalInnerProduct in shared:
+        areas, weights = areas_and_cotan_weights(vertices, faces)
+    elif shared:
+        areas = vertex_areas(vertices, faces)
+    out = []
+    for ip in ips:
+        if type(ip) is AreaInnerProduct:
+            out.append(B.weighted_gram(evecs, areas))
+        elif type(ip) is ConformalInnerProduct:
+            edges = B.edges(faces)
+            out.append(B.weighted_gram(evecs[edges[:, 0]] - evecs[edges[:, 1]], weights))
+        elif type(ip) is ExtrinsicInnerProduct:
+            out.append(_extrinsic_gram(evecs, areas, vertices))
+        else:
+            out.append(checked_gram(ip, "project_batch", vertices, faces, evecs))
+    return out
+
+
 #: The built-in inner products by name: what a ``kind`` string stands for. The paper's three (:data:`KINDS`:
 #: ``"area"``, ``"conformal"``, ``"extrinsic"``) and FuncChar's offset-surface ones (``"offset_area"``,
 #: ``"offset_conformal"``, at the default distance :data:`OFFSET`; another ``t`` is an instance of their class).
@@ -342,6 +371,8 @@ INNER_PRODUCTS = {
     )
 }
 _REGISTRY: dict = {}  # the user's, by name (register_inner_product)
+#: The classes of the built-in channels (numpy code that is safe to call from several threads at once).
+BUILT_IN_TYPES = frozenset(type(ip) for ip in INNER_PRODUCTS.values())
 
 
 def known_inner_products() -> dict:

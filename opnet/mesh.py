@@ -15,7 +15,9 @@ import potpourri3d as pp3d
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from . import _memo
 from ._checks import real_array, warn_user
+from ._parallel import thread_map
 
 __all__ = [
     "Mesh",
@@ -29,6 +31,10 @@ __all__ = [
     "corner_edges",
     "edge_face_counts",
     "face_areas",
+    "face_edges",
+    "face_normals",
+    "double_areas",
+    "squared_norms",
     "farthest_first",
     "furthest_vertices",
     "vertex_faces",
@@ -139,13 +145,35 @@ def _closest_in(points, vertices, faces, cand):
 
 def face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Triangle areas, ``(..., m)`` for vertices ``(..., n, 3)`` and faces ``(m, 3)``."""
-    return triangle_areas(vertices[..., faces, :])
+    return 0.5 * double_areas(face_edges(vertices, faces))
 
 
-def triangle_areas(corners: np.ndarray) -> np.ndarray:
-    """Areas ``(...)`` of triangles given by their corners ``(..., 3, 3)`` (``vertices[..., faces, :]``)."""
-    cross = np.cross(corners[..., 1, :] - corners[..., 0, :], corners[..., 2, :] - corners[..., 0, :])
-    return 0.5 * np.linalg.norm(cross, axis=-1)
+def face_edges(vertices: np.ndarray, faces: np.ndarray) -> list:
+    """The edge opposite each corner ``c`` of every face, ``p[c + 2] − p[c + 1]``: three arrays ``(3, ..., m)``,
+    coordinate first (x, y, z rows), for vertices ``(..., n, 3)``. In this layout every arithmetic step of the
+    batched geometry runs on contiguous rows (several times faster than on the interleaved ``(..., m, 3)``).
+    """
+    x = np.ascontiguousarray(np.moveaxis(vertices, -1, 0))  # (3, ..., n): a gather from a view is 3× slower
+    p = [np.take(x, faces[:, c], axis=-1) for c in range(3)]
+    return [p[2] - p[1], p[0] - p[2], p[1] - p[0]]
+
+
+def face_normals(edges: list) -> np.ndarray:
+    """``(b − a) × (c − a)`` ``(3, ..., m)`` (coordinate first), each face's normal times twice its area, from
+    :func:`face_edges`.
+    """
+    a, b = edges[1], edges[2]  # (p₀ − p₂) × (p₁ − p₀) = (p₁ − p₀) × (p₂ − p₀)
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def double_areas(edges: list) -> np.ndarray:
+    """``|(b − a) × (c − a)|`` ``(..., m)``, twice each face's area, from :func:`face_edges`."""
+    return np.sqrt(squared_norms(face_normals(edges)))
+
+
+def squared_norms(vectors: np.ndarray) -> np.ndarray:
+    """``|v|²`` ``(...)`` of coordinate-first vectors ``(3, ...)`` (:func:`face_edges`' layout)."""
+    return np.einsum("i...,i...->...", vectors, vectors)
 
 
 # A triangle's quality q = 4√3 · area / (sum of its squared edge lengths): 1 for an equilateral triangle, 0 for
@@ -165,9 +193,11 @@ class MeshWarning(UserWarning):
 
 def span(vertices: np.ndarray) -> np.ndarray:
     """Bounding-box diagonal ``(...)`` of shapes ``(..., n, 3)`` (length unit), without overflow at any scale."""
-    scale = np.abs(vertices).max(axis=(-2, -1), keepdims=True)
-    unit = vertices / np.where(scale > 0, scale, 1.0)  # in [-1, 1]: the extent cannot overflow
-    return scale[..., 0, 0] * np.linalg.norm(unit.max(-2) - unit.min(-2), axis=-1)
+    extent = vertices.max(-2) - vertices.min(-2)  # (..., 3): inf only beyond 1e308, out of range anyway
+    scale = extent.max(-1, keepdims=True)
+    with np.errstate(invalid="ignore"):  # an infinite extent: inf / inf; its span is inf
+        unit = extent / np.where(scale > 0, scale, 1.0)  # in [0, 1]: its norm cannot overflow
+    return np.where(np.isinf(scale[..., 0]), np.inf, scale[..., 0] * np.linalg.norm(unit, axis=-1))
 
 
 def face_quality(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -182,10 +212,10 @@ def face_quality(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def _quality(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """:func:`face_quality` of shapes whose span is within ``SPAN_RANGE`` (no rescaling needed)."""
-    corners = vertices[..., faces, :]
-    edges2 = sum(np.sum((corners[..., (c + 1) % 3, :] - corners[..., c, :]) ** 2, axis=-1) for c in range(3))
+    edges = face_edges(vertices, faces)
+    edges2 = sum(map(squared_norms, edges))
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.nan_to_num(4 * np.sqrt(3) * triangle_areas(corners) / edges2)
+        return np.nan_to_num(2 * np.sqrt(3) * double_areas(edges) / edges2)
 
 
 def _out_of_range(spans: np.ndarray) -> np.ndarray:
@@ -199,7 +229,7 @@ def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_si
     ones. Checked ``batch_size`` shapes at a time (the triangles of a whole collection take gigabytes).
     """
     batches = range(0, len(vertices), batch_size)
-    spans = np.concatenate([np.zeros(0)] + [span(vertices[s : s + batch_size]) for s in batches])
+    spans = span(vertices)
     bad = _out_of_range(spans)
     if bad.any():
         i = np.flatnonzero(bad)[0]
@@ -208,7 +238,8 @@ def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_si
             f"units (first: shape {i}, {spans[i]:.3g}), where float64 areas and the extrinsic operator "
             "under- or overflow; rescale the coordinates."
         )
-    quality = np.concatenate([np.zeros(0)] + [_quality(vertices[s : s + batch_size], faces).min(-1) for s in batches])
+    worst = thread_map(lambda s: _quality(vertices[s : s + batch_size], faces).min(-1), batches)
+    quality = np.concatenate([np.zeros(0), *worst])
     for what, limit in (("zero-area (collapsed)", REFUSE_QUALITY), ("near-degenerate", WARN_QUALITY)):
         low = quality < limit
         if low.any():
@@ -229,8 +260,10 @@ def edge_face_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def unique_edges(faces: np.ndarray) -> np.ndarray:
-    """Undirected edges ``(e, 2)`` of a triangle list, each once, sorted ``i < j``."""
-    return edge_face_counts(faces)[0]
+    """Undirected edges ``(e, 2)`` of a triangle list, each once, sorted ``i < j`` (read-only: kept for the next
+    call with the same faces).
+    """
+    return _memo.by_content("edges", (faces,), lambda: edge_face_counts(faces)[0])
 
 
 def corner_edges(faces: np.ndarray, edges: np.ndarray) -> np.ndarray:

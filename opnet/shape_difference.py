@@ -18,9 +18,19 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
+from ._backend import left_multiply
 from ._checks import check_int, real_array
+from ._parallel import thread_map
 from .fmaps import FunctionalMap
-from .inner_products import CHANNEL_SETS, KINDS, checked_gram, get_inner_product, get_inner_products
+from .inner_products import (
+    BUILT_IN_TYPES,
+    CHANNEL_SETS,
+    KINDS,
+    batch_grams,
+    checked_gram,
+    get_inner_product,
+    get_inner_products,
+)
 from .mesh import Mesh, check_shapes
 from .spectral import Eigenbasis
 
@@ -130,7 +140,7 @@ def shape_differences(
     vertices: np.ndarray,
     kinds=KINDS,
     *,
-    batch_size: int = 64,
+    batch_size: int = 128,
     progress: bool | None = None,
 ) -> np.ndarray:
     """Shape differences of many shapes in 1-1 correspondence with the base (fast path).
@@ -166,23 +176,38 @@ def fast_path(
     vertices: np.ndarray,
     ips: list,
     *,
-    batch_size: int = 64,
+    batch_size: int = 128,
     progress: bool | None = False,
     k0_pinv: list | None = None,
 ) -> np.ndarray:
     """:func:`shape_differences` of shapes already checked (float64 ``(B, n, 3)``, valid faces), for inner
     products ``ips``; for callers that validated their input once already. ``k0_pinv``: the base's
     :func:`base_pinvs` of ``ips`` when the caller computed them already (a loop over chunks of shapes).
+
+    Batches of the built-in channels run in one thread per core, each with a single-threaded BLAS (numpy's
+    elementwise geometry uses one core: two batches side by side use both); any other channel's batches run one
+    after the other in this thread (its ``project_batch`` may not be safe to call from two threads).
     """
     phi, faces = base_basis.evecs, base_basis.mesh.faces
     k0_pinv = base_pinvs(base_basis, ips) if k0_pinv is None else k0_pinv
     out = np.empty((len(vertices), len(ips), base_basis.k, base_basis.k))
     starts = range(0, len(vertices), batch_size)
-    show = len(starts) > 1 if progress is None else progress
-    for s in tqdm(starts, desc="shape differences", unit="batch", disable=not show):
+
+    def one(s):
         chunk = vertices[s : s + batch_size]
-        for c, (ip, kp) in enumerate(zip(ips, k0_pinv)):
-            out[s : s + len(chunk), c] = kp @ checked_gram(ip, "project_batch", chunk, faces, phi)
+        for c, (kp, gram) in enumerate(zip(k0_pinv, batch_grams(ips, chunk, faces, phi))):
+            out[s : s + len(chunk), c] = left_multiply(kp, gram)
+
+    show = len(starts) > 1 if progress is None else progress
+    threads = None if all(type(ip) in BUILT_IN_TYPES for ip in ips) else 1  # another channel: in this thread
+    for _ in tqdm(
+        thread_map(one, starts, threads=threads),
+        total=len(starts),
+        desc="shape differences",
+        unit="batch",
+        disable=not show,
+    ):
+        pass
     return out
 
 

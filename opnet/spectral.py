@@ -15,12 +15,13 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg
 
+from . import _memo
 from ._backend import areas as tensor_areas
 from ._backend import edge_weights as tensor_edge_weights
 from ._backend import is_tensor
 from ._backend import normals as tensor_normals
 from ._checks import real_array
-from .mesh import Mesh, as_faces, corner_edges, face_areas, triangle_areas, unique_edges
+from .mesh import Mesh, as_faces, corner_edges, double_areas, face_edges, face_normals, unique_edges
 
 __all__ = ["Eigenbasis", "eigenbasis", "cotan_edge_weights", "vertex_areas", "vertex_normals"]
 
@@ -138,22 +139,31 @@ def eigenbasis(mesh: Mesh, k: int) -> Eigenbasis:
 # ---- batched weights for collections sharing one connectivity ---------------------------------------
 
 
-def _corner_cotangents(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Cot of each corner angle, ``(..., m, 3)``; corner c is opposite the edge (c+1, c+2)."""
-    v = vertices[..., faces, :]  # (..., m, 3, 3)
-    double_area = 2.0 * triangle_areas(v)  # |e1 × e2| is the same at every corner
-    cots = []
-    for c in range(3):
-        e1 = v[..., (c + 1) % 3, :] - v[..., c, :]
-        e2 = v[..., (c + 2) % 3, :] - v[..., c, :]
-        cots.append(np.einsum("...i,...i->...", e1, e2) / double_area)
-    return np.stack(cots, axis=-1)
+def _cotan_weights(edges: list, double_area: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """:func:`cotan_edge_weights` from the faces' :func:`~opnet.mesh.face_edges` and :func:`~opnet.mesh.double_areas`.
+
+    The cot of corner ``c`` is ``(e1 · e2) / |e1 × e2|`` with its two edges ``e1 = p[c+1] − p[c] = g[c+2]`` and
+    ``e2 = p[c+2] − p[c] = −g[c+1]`` (``g`` the edges opposite the corners); each edge gets half the cots of the
+    corners opposite it.
+    """
+    cot = [-np.einsum("i...,i...->...", edges[(c + 2) % 3], edges[(c + 1) % 3]) / double_area for c in range(3)]
+    cot = np.stack(cot, axis=-1)  # (..., m, 3): corner order, as the corner-to-edge matrix's rows
+    return 0.5 * _scatter(cot.reshape(*cot.shape[:-2], -1), _corner_to_edge(faces, unique_edges(faces)))
+
+
+def _lumped_areas(double_area: np.ndarray, faces: np.ndarray, n: int) -> np.ndarray:
+    """:func:`vertex_areas` from :func:`~opnet.mesh.double_areas`: a third of each face's area to its corners."""
+    return _scatter(double_area / 6.0, _face_incidence(faces, n))
 
 
 def _corner_to_edge(faces: np.ndarray, edges: np.ndarray) -> sp.csr_matrix:
     """Sparse ``(3m, e)`` matrix adding each corner's value to its opposite edge."""
-    col = corner_edges(faces, edges)
-    return sp.csr_matrix((np.ones(len(col)), (np.arange(len(col)), col)), shape=(len(col), len(edges)))
+
+    def build():
+        col = corner_edges(faces, edges)
+        return sp.csr_matrix((np.ones(len(col)), (np.arange(len(col)), col)), shape=(len(col), len(edges)))
+
+    return _memo.by_content("corner to edge", (faces, edges), build)
 
 
 def _scatter(values: np.ndarray, matrix: sp.spmatrix) -> np.ndarray:
@@ -175,14 +185,7 @@ def cotan_edge_weights(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """
     if is_tensor(vertices):  # torch is imported by _backend only when a tensor comes
         return tensor_edge_weights(vertices, faces)
-    vertices, faces = _checked(vertices, faces)
-    return _edge_weights(vertices, faces, unique_edges(faces))
-
-
-def _edge_weights(vertices: np.ndarray, faces: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """:func:`cotan_edge_weights` for edges already known to be ``unique_edges(faces)``."""
-    cot = _corner_cotangents(vertices, faces)
-    return 0.5 * _scatter(cot.reshape(*cot.shape[:-2], -1), _corner_to_edge(faces, edges))
+    return areas_and_cotan_weights(vertices, faces)[1]
 
 
 def vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -193,20 +196,30 @@ def vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """
     if is_tensor(vertices):
         return tensor_areas(vertices, faces)
-    return _vertex_areas(*_checked(vertices, faces))
+    vertices, faces = _checked(vertices, faces)
+    return _lumped_areas(double_areas(face_edges(vertices, faces)), faces, vertices.shape[-2])
 
 
-def _vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """:func:`vertex_areas` without the argument checks (for arrays already checked)."""
-    return _scatter(face_areas(vertices, faces) / 3.0, _face_incidence(faces, vertices.shape[-2]))
+def areas_and_cotan_weights(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`vertex_areas` ``(..., n)`` and :func:`cotan_edge_weights` ``(..., e)`` of numpy vertices ``(..., n, 3)``
+    from one pass over their faces (the batched operators need both).
+    """
+    vertices, faces = _checked(vertices, faces)
+    edges = face_edges(vertices, faces)
+    double_area = double_areas(edges)
+    return _lumped_areas(double_area, faces, vertices.shape[-2]), _cotan_weights(edges, double_area, faces)
 
 
 def _face_incidence(faces: np.ndarray, n: int) -> sp.csr_matrix:
     """Sparse ``(m, n)`` matrix of ones where face ``f`` has vertex ``i``: ``values @ it`` adds face values to the
     vertices of each face (:func:`_scatter`).
     """
-    return sp.csr_matrix(
-        (np.ones(faces.size), (np.repeat(np.arange(len(faces)), 3), faces.ravel())), shape=(len(faces), n)
+    return _memo.by_content(
+        f"face incidence {n}",
+        (faces,),
+        lambda: sp.csr_matrix(
+            (np.ones(faces.size), (np.repeat(np.arange(len(faces)), 3), faces.ravel())), shape=(len(faces), n)
+        ),
     )
 
 
@@ -220,8 +233,6 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     if is_tensor(vertices):
         return tensor_normals(vertices, faces)
     vertices, faces = _checked(vertices, faces)
-    corners = vertices[..., faces, :]  # (..., m, 3, 3)
-    cross = np.cross(corners[..., 1, :] - corners[..., 0, :], corners[..., 2, :] - corners[..., 0, :])  # (..., m, 3)
-    incidence = _face_incidence(faces, vertices.shape[-2])
-    summed = np.moveaxis(_scatter(np.moveaxis(cross, -1, -2), incidence), -2, -1)  # (..., n, 3)
+    cross = face_normals(face_edges(vertices, faces))  # (3, ..., m)
+    summed = np.moveaxis(_scatter(cross, _face_incidence(faces, vertices.shape[-2])), 0, -1)  # (..., n, 3)
     return summed / np.maximum(np.linalg.norm(summed, axis=-1, keepdims=True), 1e-300)  # 0, not NaN, where none

@@ -30,11 +30,23 @@ def test_the_shape_difference_benchmark_checks_the_fast_path_against_the_explici
     bench = script("shape_differences")
     args = bench.parse_args(["--quick", "--n-shapes", "8", "--n-explicit", "1", "--repeats", "1", "--batch-size", "4"])
     result = bench.measure(args)
-    fast = [r for r in result["rows"] if r["method"].startswith("opnet fast path")]
-    assert len(fast) == 4 and all(r["max_rel_diff"] < 1e-10 for r in fast)
+    fast = [r for r in result["rows"] if "share_of_dense_rate" in r]  # with and without the shape checks
+    assert len(fast) == 8 and all(r["max_rel_diff"] < 1e-12 for r in fast)
     assert all(r["speedup"] > 1 for r in fast)  # no full eigendecomposition: faster by construction
+    assert all(0 < r["share_of_dense_rate"] for r in fast) and result["dense_rate_gflops"]["used"] > 0
     report = bench.report(json.loads(json.dumps(result)))  # as the docs read it back
     assert report.count("| opnet fast path") == 4 and "faster than the explicit formula" in report
+    assert "dense-product rate" in report
+
+
+def test_the_fast_path_work_is_counted_as_its_products():
+    bench = script("shape_differences")
+    n, e, k = 100, 300, 10
+    # area: weights (n) times the table (n, k(k+1)/2), two flops a term; then K₀⁺ K, 2k³
+    assert bench.fast_path_flops(n, e, k, ("area",)) == 2 * n * k * (k + 1) // 2 + 2 * k**3
+    assert bench.fast_path_flops(n, e, k, ("conformal",)) == 2 * e * k * (k + 1) // 2 + 2 * k**3
+    both = bench.fast_path_flops(n, e, k, ("area", "extrinsic"))
+    assert both == 2 * bench.fast_path_flops(n, e, k, ("area",)) + 10 * n * k
 
 
 @pytest.mark.parametrize("path", sorted((BENCHMARKS / "results").glob("*.json")), ids=lambda p: p.stem)

@@ -24,7 +24,7 @@ _IMPORTERS = ("require", "import_module")  # opnet._extras.require, importlib.im
 
 #: The package's layers, lowest first: geometry in numpy, then the data, then torch, then what sits on top.
 PACKAGE_LAYERS = [
-    {"_checks", "_files", "_extras"},
+    {"_checks", "_files", "_extras", "_memo", "_parallel"},
     {"mesh"},
     {"_backend", "algebra"},
     {"spectral"},

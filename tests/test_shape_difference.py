@@ -127,6 +127,59 @@ def test_batched_equals_single(base_basis, targets):
             np.testing.assert_allclose(Ds[b, c], opnet.shape_difference(base_basis, t, kind), atol=1e-12)
 
 
+def test_batches_in_threads_equal_one_batch_and_user_channels_stay_in_this_thread(base_basis, targets):
+    import importlib
+    import threading
+
+    fast_path = importlib.import_module("opnet.shape_difference").fast_path
+    V = np.stack([t.vertices for t in targets] * 3)  # 9 shapes: 5 batches of 2 on the threads
+    ips = opnet.inner_products.get_inner_products(KINDS)
+    in_threads, one_batch = fast_path(base_basis, V, ips, batch_size=2), fast_path(base_basis, V, ips, batch_size=9)
+    np.testing.assert_allclose(in_threads, one_batch, rtol=0, atol=1e-13)  # the products' rounding only
+    seen = set()
+
+    class Recorded(opnet.AreaInnerProduct):  # not a built-in type: its project_batch may not be thread-safe
+        name = "recorded"
+
+        def project_batch(self, vertices, faces, evecs):
+            seen.add(threading.get_ident())
+            return super().project_batch(vertices, faces, evecs)
+
+    D = fast_path(base_basis, V, [ips[0], Recorded()], batch_size=2)
+    assert seen == {threading.get_ident()}
+    np.testing.assert_allclose(D[:, 0], D[:, 1], rtol=0, atol=1e-13)
+
+
+def test_kept_values_follow_the_arrays_contents():
+    from opnet import _memo
+
+    built = []
+    a = np.arange(6.0)
+
+    def build():
+        built.append(1)
+        return a * 2
+
+    first = _memo.by_content("test", (a,), build)
+    assert _memo.by_content("test", (a.copy(),), build) is first and len(built) == 1  # equal contents: kept
+    assert not first.flags.writeable  # a kept value cannot be edited by a caller
+    a[0] = 7.0  # edited in place: a new key, built again
+    np.testing.assert_array_equal(_memo.by_content("test", (a,), build), a * 2)
+    assert len(built) == 2
+    assert _memo.by_content("test", (a.astype(np.float32),), build) is not None and len(built) == 3  # dtype counts
+
+
+def test_gram_tables_give_the_direct_product(base_basis):
+    rng = np.random.default_rng(0)
+    phi = base_basis.evecs
+    w = rng.random((4, phi.shape[0]))
+    direct = np.einsum("pi,bp,pj->bij", phi, w, phi)
+    for _ in range(2):  # the table built, then kept
+        np.testing.assert_allclose(
+            opnet._backend.weighted_gram(phi, w), direct, rtol=0, atol=1e-13 * np.abs(direct).max()
+        )
+
+
 class GramInnerProduct(opnet.InnerProduct):
     """A user-defined inner product in a few lines: Theorem 1's G = Φᵀ A X Xᵀ A Φ."""
 

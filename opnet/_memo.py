@@ -1,0 +1,74 @@
+"""Values derived from arrays, kept by the arrays' contents: the topology of a triangle list (its edges, the sparse
+matrices that scatter face and corner values) and the product tables of a basis, which every batch of shapes on
+the same mesh and basis would otherwise rebuild.
+
+Keys are a digest of the arrays' bytes, shapes and dtypes, so an array edited in place is a new key, never a stale
+hit. Kept values are made read-only; the oldest go first once :data:`MAX_BYTES` would be exceeded.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import threading
+from collections import OrderedDict
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["by_content", "clear"]
+
+#: Bytes of arrays kept at most (the k = 60 tables of a 1k-vertex mesh's basis and edges take ~60 MB).
+MAX_BYTES = 512 * 2**20
+
+_KEPT: OrderedDict = OrderedDict()  # key -> (value, bytes)
+_LOCK = threading.Lock()  # the fast path's threads share the kept values
+
+
+def _digest(arrays) -> bytes:
+    h = hashlib.blake2b(digest_size=20)
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.shape}{a.dtype.str};".encode())
+        h.update(a.data)
+    return h.digest()
+
+
+def _nbytes(value) -> int:
+    if isinstance(value, tuple):
+        return sum(map(_nbytes, value))
+    if sp.issparse(value):
+        return sum(getattr(value, n).nbytes for n in ("data", "indices", "indptr"))
+    return value.nbytes
+
+
+def _freeze(value):
+    if isinstance(value, tuple):
+        return tuple(map(_freeze, value))
+    for a in (value.data, value.indices, value.indptr) if sp.issparse(value) else (value,):
+        a.setflags(write=False)
+    return value
+
+
+def by_content(tag: str, arrays, build):
+    """``build()`` (an array, a sparse matrix or a tuple of them), computed once per ``tag`` and contents of
+    ``arrays``; a value larger than :data:`MAX_BYTES` is returned without being kept.
+    """
+    key = (tag, _digest(arrays))
+    with _LOCK:
+        if key in _KEPT:
+            _KEPT.move_to_end(key)
+            return _KEPT[key][0]
+    value = _freeze(build())  # outside the lock: two threads may build one value, and keep either
+    size = _nbytes(value)
+    if size <= MAX_BYTES:
+        with _LOCK:
+            while _KEPT and sum(s for _, s in _KEPT.values()) + size > MAX_BYTES:
+                _KEPT.popitem(last=False)
+            _KEPT[key] = (value, size)
+    return value
+
+
+def clear() -> None:
+    """Forget every kept value."""
+    with _LOCK:
+        _KEPT.clear()
