@@ -79,7 +79,8 @@ def weighted_gram(phi, weights):
 
     numpy: for a batch of weight vectors the product is linear in ``w``, one matrix product ``w @ T`` with the
     table ``T[p, (i, j)] = Φ[p, i] Φ[p, j]`` (upper triangle), several times faster than one product per shape;
-    the table is kept for the next call with the same ``Φ`` (built in chunks of rows, and not kept, when large).
+    for a batch, the table is kept for the next batch with the same ``Φ`` (built in chunks of rows, and not kept,
+    for one shape or when large).
     torch: one batched product (autograd through ``w``).
     """
     if is_tensor(weights):
@@ -89,7 +90,7 @@ def weighted_gram(phi, weights):
     k = phi.shape[1]
     iu, ju = np.triu_indices(k)
     flat = weights.reshape(-1, weights.shape[-1])
-    if phi.shape[0] * len(iu) <= _KEPT_TABLE_ENTRIES:  # the table of a basis is built once, then reused
+    if len(flat) > 1 and phi.shape[0] * len(iu) <= _KEPT_TABLE_ENTRIES:  # batches of one basis: the table reused
         upper = flat @ _memo.by_content("gram table", (phi,), lambda: _gram_table(phi, iu, ju))
     else:
         upper = np.zeros((len(flat), len(iu)))

@@ -3,7 +3,7 @@ matrices that scatter face and corner values) and the product tables of a basis,
 the same mesh and basis would otherwise rebuild.
 
 Keys are a digest of the arrays' bytes, shapes and dtypes, so an array edited in place is a new key, never a stale
-hit. Kept values are made read-only; the oldest go first once :data:`MAX_BYTES` would be exceeded.
+hit. Kept values are made read-only; the least recently used go first once :data:`MAX_BYTES` would be exceeded.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ MAX_BYTES = 512 * 2**20
 
 _KEPT: OrderedDict = OrderedDict()  # key -> (value, bytes)
 _LOCK = threading.Lock()  # the fast path's threads share the kept values
+_TOTAL = [0]  # bytes kept
 
 
 def _digest(arrays) -> bytes:
@@ -62,9 +63,12 @@ def by_content(tag: str, arrays, build):
     size = _nbytes(value)
     if size <= MAX_BYTES:
         with _LOCK:
-            while _KEPT and sum(s for _, s in _KEPT.values()) + size > MAX_BYTES:
-                _KEPT.popitem(last=False)
+            if key in _KEPT:  # another thread built it meanwhile: keep one
+                return _KEPT[key][0]
+            while _KEPT and _TOTAL[0] + size > MAX_BYTES:
+                _TOTAL[0] -= _KEPT.popitem(last=False)[1][1]
             _KEPT[key] = (value, size)
+            _TOTAL[0] += size
     return value
 
 
@@ -72,3 +76,4 @@ def clear() -> None:
     """Forget every kept value."""
     with _LOCK:
         _KEPT.clear()
+        _TOTAL[0] = 0

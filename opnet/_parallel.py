@@ -6,30 +6,62 @@ threads' matrix products do not oversubscribe the cores.
 from __future__ import annotations
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 from threadpoolctl import ThreadpoolController
 
 __all__ = ["usable_cores", "thread_map"]
 
-_CONTROLLER: list = []  # one ThreadpoolController, made at first use (finding the BLAS libraries takes ~4 ms)
+_STATE = {"controller": None, "limiter": None, "active": 0}  # the one-thread BLAS, while any thread_map runs
+_LOCK = threading.Lock()
 
 
 def usable_cores() -> int:
-    """The cores this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    """The cores this process may use: ``OPNET_THREADS`` when set, else the CPUs it may run on (Python 3.13's
+    ``os.process_cpu_count``, or the affinity mask), at most the CPU quota of its cgroup (Linux containers).
+    """
+    if os.environ.get("OPNET_THREADS"):
+        return max(1, int(os.environ["OPNET_THREADS"]))
+    if hasattr(os, "process_cpu_count"):
+        cores = os.process_cpu_count() or 1
+    else:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    try:  # cgroup v2: "max 100000" (no quota) or "200000 100000" (two CPUs' worth)
+        quota, period = open("/sys/fs/cgroup/cpu.max").read().split()[:2]
+        if quota != "max":
+            cores = min(cores, max(1, int(int(quota) / int(period))))
+    except (OSError, ValueError):
+        pass
+    return cores
+
+
+def _one_blas_thread(enter: bool) -> None:
+    """Hold the BLAS to one thread while any :func:`thread_map` runs; restore it when the last one ends."""
+    with _LOCK:
+        if enter:
+            if _STATE["active"] == 0:
+                _STATE["controller"] = _STATE["controller"] or ThreadpoolController()
+                _STATE["limiter"] = _STATE["controller"].limit(limits=1, user_api="blas")
+            _STATE["active"] += 1
+        else:
+            _STATE["active"] -= 1
+            if _STATE["active"] == 0:
+                _STATE["limiter"].restore_original_limits()
 
 
 def thread_map(fn, items, *, threads: int | None = None):
     """``fn(item)`` for each of ``items`` (a sized sequence), in order, yielded as each finishes in order: in
-    ``threads`` threads (default: one per usable core, at most one per item) with a one-thread BLAS, or in this
+    ``threads`` threads (default :func:`usable_cores`, at most one per item) with a one-thread BLAS, or in this
     thread when one is enough. ``fn`` must be safe to call from several threads at once.
     """
     threads = min(len(items), usable_cores() if threads is None else threads)
     if threads <= 1:
         yield from map(fn, items)
         return
-    if not _CONTROLLER:
-        _CONTROLLER.append(ThreadpoolController())
-    with _CONTROLLER[0].limit(limits=1, user_api="blas"), ThreadPoolExecutor(threads) as pool:
-        yield from pool.map(fn, items)
+    _one_blas_thread(True)
+    try:
+        with ThreadPoolExecutor(threads) as pool:
+            yield from pool.map(fn, items)
+    finally:
+        _one_blas_thread(False)

@@ -64,6 +64,7 @@ __all__ = [
     "rigid_motion_change",
     "checked_gram",
     "batch_grams",
+    "is_built_in",
     "BUILT_IN_TYPES",
 ]
 
@@ -276,18 +277,23 @@ def _area_gram(vertices, faces, evecs):
 
 def _conformal_gram(vertices, faces, evecs):
     """``Φᵀ W Φ`` with the cotan stiffness ``W`` (numpy or torch)."""
+    return _edge_gram(evecs, faces, cotan_edge_weights(vertices, faces))
+
+
+def _edge_gram(evecs, faces, weights):
+    """``Σ_e w_e (φ_i − φ_j)(φ_i − φ_j)ᵀ`` ``(..., k, k)`` for edge weights ``(..., e)`` on ``unique_edges(faces)``."""
     edges = B.edges(faces)
-    return B.weighted_gram(evecs[edges[:, 0]] - evecs[edges[:, 1]], cotan_edge_weights(vertices, faces))
+    return B.weighted_gram(evecs[edges[:, 0]] - evecs[edges[:, 1]], weights)
 
 
 def _extrinsic_gram(evecs, a, vertices):
     """``Φᵀ E^D Φ`` for masses ``a`` ``(..., n)`` at positions ``(..., n, 3)`` (numpy or torch)."""
     total = a.sum(-1)[..., None]
-    # distances are translation invariant: centring first avoids cancellation, and makes Σ a v = 0
+    # distances are translation invariant: centring first avoids cancellation (Σ y is then ~0, not exactly)
     v = vertices - (B.einsum("...n,...ni->...i", a, vertices) / total)[..., None, :]
     u = a * B.einsum("...ni,...ni->...n", v, v)
     y = a[..., None] * v  # (..., n, 3)
-    rowsum = u * total + a * u.sum(-1)[..., None]  # E 1 = u Σa + a Σu − 2 Y Σy, and Σy = Σ a v = 0
+    rowsum = u * total + a * u.sum(-1)[..., None] - 2 * B.einsum("...ni,...i->...n", y, y.sum(-2))  # E 1
     p = B.project_columns(evecs, B.stack([a, u, y[..., 0], y[..., 1], y[..., 2]], -1))  # Φᵀ (a, u, Y): (..., k, 5)
     left = p[..., [1, 0, 2, 3, 4]]
     left[..., 2:] *= -2  # Φᵀ E Φ = (Φᵀu)(Φᵀa)ᵀ + (Φᵀa)(Φᵀu)ᵀ − 2 (ΦᵀY)(ΦᵀY)ᵀ, one product
@@ -338,23 +344,37 @@ def batch_grams(ips, vertices: np.ndarray, faces: np.ndarray, evecs: np.ndarray)
     vertex areas and the cotan weights); any other is its :meth:`~InnerProduct.project_batch`, checked
     (:func:`checked_gram`).
     """
-    shared = {type(ip) for ip in ips} & {AreaInnerProduct, ConformalInnerProduct, ExtrinsicInnerProduct}
-    if ConformalInnerProduct in shared:
+    paper = (AreaInnerProduct, ConformalInnerProduct, ExtrinsicInnerProduct)
+    kind = [type(ip) if type(ip) in paper and is_built_in(ip) else None for ip in ips]
+    if ConformalInnerProduct in kind:
         areas, weights = areas_and_cotan_weights(vertices, faces)
-    elif shared:
+    elif any(kind):
         areas = vertex_areas(vertices, faces)
     out = []
-    for ip in ips:
-        if type(ip) is AreaInnerProduct:
-            out.append(B.weighted_gram(evecs, areas))
-        elif type(ip) is ConformalInnerProduct:
-            edges = B.edges(faces)
-            out.append(B.weighted_gram(evecs[edges[:, 0]] - evecs[edges[:, 1]], weights))
-        elif type(ip) is ExtrinsicInnerProduct:
-            out.append(_extrinsic_gram(evecs, areas, vertices))
-        else:
+    for ip, cls in zip(ips, kind):
+        if cls is None:
             out.append(checked_gram(ip, "project_batch", vertices, faces, evecs))
+            continue
+        if cls is AreaInnerProduct:
+            K = B.weighted_gram(evecs, areas)
+        elif cls is ConformalInnerProduct:
+            K = _edge_gram(evecs, faces, weights)
+        else:
+            K = _extrinsic_gram(evecs, areas, vertices)
+        if not np.isfinite(K).all():
+            raise ValueError(
+                f"{type(ip).__name__}.project_batch (inner product {ip.name!r}) returned NaN or infinite values; "
+                "check the shapes (opnet.mesh.check_shapes: collapsed faces, coordinates out of range)."
+            )
+        out.append(K)
     return out
+
+
+def is_built_in(ip) -> bool:
+    """Whether ``ip`` is an instance of a built-in class (:data:`BUILT_IN_TYPES`) that overrides none of its methods
+    on the instance: its numpy code is opnet's, safe to run in several threads and to share a pass over the faces.
+    """
+    return type(ip) in BUILT_IN_TYPES and not {"project", "project_batch"} & set(vars(ip))
 
 
 #: The built-in inner products by name: what a ``kind`` string stands for. The paper's three (:data:`KINDS`:

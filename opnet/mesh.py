@@ -193,7 +193,7 @@ class MeshWarning(UserWarning):
 
 def span(vertices: np.ndarray) -> np.ndarray:
     """Bounding-box diagonal ``(...)`` of shapes ``(..., n, 3)`` (length unit), without overflow at any scale."""
-    extent = vertices.max(-2) - vertices.min(-2)  # (..., 3): inf only beyond 1e308, out of range anyway
+    extent = vertices.max(-2) - vertices.min(-2)  # (..., 3): inf only beyond the dtype's range, out of range anyway
     scale = extent.max(-1, keepdims=True)
     with np.errstate(invalid="ignore"):  # an infinite extent: inf / inf; its span is inf
         unit = extent / np.where(scale > 0, scale, 1.0)  # in [0, 1]: its norm cannot overflow
@@ -226,7 +226,8 @@ def _out_of_range(spans: np.ndarray) -> np.ndarray:
 def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_size: int = 64) -> None:
     """Refuse shapes ``(B, n, 3)`` sharing ``faces`` whose scale is out of range or that have collapsed faces
     (``ValueError`` naming ``name`` and the first shape), and warn (:class:`MeshWarning`) about near-degenerate
-    ones. Checked ``batch_size`` shapes at a time (the triangles of a whole collection take gigabytes).
+    ones. The faces are checked ``batch_size`` shapes at a time, one batch per core (the triangles of a whole
+    collection take gigabytes).
     """
     batches = range(0, len(vertices), batch_size)
     spans = span(vertices)
@@ -260,10 +261,10 @@ def edge_face_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def unique_edges(faces: np.ndarray) -> np.ndarray:
-    """Undirected edges ``(e, 2)`` of a triangle list, each once, sorted ``i < j`` (read-only: kept for the next
-    call with the same faces).
+    """Undirected edges ``(e, 2)`` of a triangle list, each once, sorted ``i < j`` (found once per triangulation;
+    each call returns its own copy).
     """
-    return _memo.by_content("edges", (faces,), lambda: edge_face_counts(faces)[0])
+    return _memo.by_content("edges", (faces,), lambda: edge_face_counts(faces)[0]).copy()
 
 
 def corner_edges(faces: np.ndarray, edges: np.ndarray) -> np.ndarray:

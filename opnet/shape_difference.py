@@ -23,13 +23,13 @@ from ._checks import check_int, real_array
 from ._parallel import thread_map
 from .fmaps import FunctionalMap
 from .inner_products import (
-    BUILT_IN_TYPES,
     CHANNEL_SETS,
     KINDS,
     batch_grams,
     checked_gram,
     get_inner_product,
     get_inner_products,
+    is_built_in,
 )
 from .mesh import Mesh, check_shapes
 from .spectral import Eigenbasis
@@ -154,7 +154,7 @@ def shape_differences(
     kinds : sequence of kinds
         Each ``"area"``, ``"conformal"``, ``"extrinsic"`` or an InnerProduct.
     batch_size : int
-        Shapes evaluated together (memory grows as ``batch_size · n · k``).
+        Shapes evaluated together, one batch per core (memory grows as ``cores · batch_size · (faces + k²)``).
     progress : bool, optional
         Show a progress bar (default: when more than one batch).
 
@@ -179,14 +179,16 @@ def fast_path(
     batch_size: int = 128,
     progress: bool | None = False,
     k0_pinv: list | None = None,
+    threads: int | None = None,
 ) -> np.ndarray:
     """:func:`shape_differences` of shapes already checked (float64 ``(B, n, 3)``, valid faces), for inner
     products ``ips``; for callers that validated their input once already. ``k0_pinv``: the base's
     :func:`base_pinvs` of ``ips`` when the caller computed them already (a loop over chunks of shapes).
 
-    Batches of the built-in channels run in one thread per core, each with a single-threaded BLAS (numpy's
-    elementwise geometry uses one core: two batches side by side use both); any other channel's batches run one
-    after the other in this thread (its ``project_batch`` may not be safe to call from two threads).
+    Batches of the built-in channels run in ``threads`` threads (default one per usable core), each with a
+    single-threaded BLAS (numpy's elementwise geometry uses one core: two batches side by side use both); any other
+    channel's batches run one after the other in this thread (its ``project_batch`` may not be safe to call from two
+    threads). Memory grows as ``threads · batch_size · (faces + k²)``.
     """
     phi, faces = base_basis.evecs, base_basis.mesh.faces
     k0_pinv = base_pinvs(base_basis, ips) if k0_pinv is None else k0_pinv
@@ -199,7 +201,8 @@ def fast_path(
             out[s : s + len(chunk), c] = left_multiply(kp, gram)
 
     show = len(starts) > 1 if progress is None else progress
-    threads = None if all(type(ip) in BUILT_IN_TYPES for ip in ips) else 1  # another channel: in this thread
+    if not all(map(is_built_in, ips)):
+        threads = 1  # a channel of one's own: in this thread
     for _ in tqdm(
         thread_map(one, starts, threads=threads),
         total=len(starts),

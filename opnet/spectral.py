@@ -185,7 +185,9 @@ def cotan_edge_weights(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """
     if is_tensor(vertices):  # torch is imported by _backend only when a tensor comes
         return tensor_edge_weights(vertices, faces)
-    return areas_and_cotan_weights(vertices, faces)[1]
+    vertices, faces = _checked(vertices, faces)
+    edges = face_edges(vertices, faces)
+    return _cotan_weights(edges, double_areas(edges), faces)
 
 
 def vertex_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -150,6 +150,67 @@ def test_batches_in_threads_equal_one_batch_and_user_channels_stay_in_this_threa
     np.testing.assert_allclose(D[:, 0], D[:, 1], rtol=0, atol=1e-13)
 
 
+def test_the_extrinsic_operator_keeps_the_constant_in_its_kernel_far_from_the_origin(base, base_basis):
+    K = [
+        opnet.inner_products.get_inner_product("extrinsic").project_batch(
+            base.vertices[None] + offset, base.faces, base_basis.evecs
+        )[0]
+        for offset in (0.0, 1e3, 1e6)
+    ]
+    for moved in K[1:]:  # translation invariant to rounding: the centring's residue Σ a v is kept in the formula
+        assert np.abs(moved - K[0]).max() < 1e-9 * np.abs(K[0]).max()
+
+
+def test_the_blas_comes_back_to_its_threads_after_overlapping_thread_maps():
+    import threading
+
+    from threadpoolctl import threadpool_info
+
+    from opnet import _parallel
+
+    before = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+    started, release = threading.Barrier(2), threading.Event()
+
+    def work(item):
+        if item == 0:
+            started.wait(timeout=10)
+            release.wait(timeout=10)
+        return item
+
+    other = threading.Thread(target=lambda: list(_parallel.thread_map(work, range(2), threads=2)))
+    other.start()
+    started.wait(timeout=10)  # the other map holds the limit; this one starts and ends inside it
+    assert list(_parallel.thread_map(lambda i: i, range(3), threads=2)) == [0, 1, 2]
+    assert all(p["num_threads"] == 1 for p in threadpool_info() if p["user_api"] == "blas")
+    release.set()
+    other.join()
+    assert [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"] == before
+
+
+def test_kept_topology_cannot_be_edited_through_what_callers_get(base):
+    edges = opnet.mesh.unique_edges(base.faces)
+    edges[0] = 999  # the caller's own copy
+    assert opnet.mesh.unique_edges(base.faces)[0, 0] != 999
+
+
+def test_the_fast_path_names_a_channel_that_returns_nan(base, base_basis):
+    import importlib
+
+    fast_path = importlib.import_module("opnet.shape_difference").fast_path
+    V = base.vertices[None].copy()
+    V[0, base.faces[0]] = V[0, base.faces[0, 0]]  # one face collapsed: its cotangents are undefined
+    with pytest.raises(ValueError, match="ConformalInnerProduct.*NaN"), np.errstate(all="ignore"):
+        fast_path(base_basis, V, opnet.inner_products.get_inner_products(["conformal"]))
+
+
+def test_an_instance_that_overrides_its_batch_is_called(base_basis, targets):
+    ip = opnet.AreaInnerProduct()
+    ip.project_batch = lambda vertices, faces, evecs: np.zeros((len(vertices), evecs.shape[1], evecs.shape[1]))
+    assert not opnet.inner_products.is_built_in(ip)
+    D = opnet.shape_differences(base_basis, targets[0].vertices[None], kinds=[ip], progress=False)
+    assert not D.any()
+
+
 def test_kept_values_follow_the_arrays_contents():
     from opnet import _memo
 

@@ -133,18 +133,19 @@ def compute_operators(
 ) -> np.ndarray:
     """Shape differences ``(N, k, k)`` float32 of one channel for shapes ``(N, n, 3)`` on the base's faces.
 
-    With a :meth:`~opnet.InnerProduct.project_batch` of its own, in batches (the fast path); otherwise shape by
-    shape, in ``n_jobs`` processes (joblib's convention, default all cores; 1: in this process), with a progress
-    bar over the shapes.
+    With a :meth:`~opnet.InnerProduct.project_batch` of its own, in batches (the fast path; a built-in's batches in
+    ``n_jobs`` threads); otherwise shape by shape, in ``n_jobs`` processes; ``n_jobs`` as joblib's (default, or
+    -1: all cores; 1: in this process). A progress bar over the shapes.
     """
     vertices = np.asarray(vertices)
     k0_pinvs = base_pinvs(basis, [ip])  # once for all the shapes
     if type(ip).project_batch is not InnerProduct.project_batch:
         out = np.empty((len(vertices), basis.k, basis.k), np.float32)
+        threads = None if n_jobs in (None, -1) else n_jobs
         starts = range(0, len(vertices), 1024)  # float64 chunks of a float32 collection (~30 MB at 1k vertices)
         for s in tqdm(starts, desc=f"channel {ip.name}", unit="chunk", disable=_hidden(progress, len(starts))):
             chunk = vertices[s : s + 1024].astype(np.float64)
-            out[s : s + 1024] = fast_path(basis, chunk, [ip], k0_pinv=k0_pinvs)[:, 0]
+            out[s : s + 1024] = fast_path(basis, chunk, [ip], k0_pinv=k0_pinvs, threads=threads)[:, 0]
         return out
     k0_pinv = k0_pinvs[0]
     chunks = [vertices[s : s + _CHUNK] for s in range(0, len(vertices), _CHUNK)]
