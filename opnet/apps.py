@@ -486,9 +486,9 @@ def path_metrics(path, truth, faces) -> dict:
 
 
 def interpolation_benchmark(collection, methods, paths, *, progress: bool | None = None) -> list[dict]:
-    """One row per (method, path kind): ``method``, ``kind``, ``n_paths``, ``steps`` and the means over the paths of
-    :func:`path_metrics` (plus the worst ``smoothness``, ``smoothness_max``). A first row per kind, ``"Ground
-    truth"``, scores the true paths themselves (their own distortion: what bending costs in edge lengths).
+    """One row per (method, path kind): ``method``, ``kind``, ``scheme``, ``n_paths``, ``steps`` and the means over
+    the paths of :func:`path_metrics` (plus the worst ``smoothness``, ``smoothness_max``). A first row per kind,
+    ``"Ground truth"``, scores the true paths themselves (their own distortion: what bending costs in edge lengths).
 
     ``paths``: a :class:`Paths` or a list of them; ``methods``: :class:`ShapeAlgebra` objects.
     """
@@ -505,6 +505,8 @@ def interpolation_benchmark(collection, methods, paths, *, progress: bool | None
             if m is None:  # the truth against itself: exactly 0 (not rounding noise)
                 metrics = [dict(r, endpoint_d_R=0.0, d_R_truth=0.0) for r in metrics]
             row = dict(method="Ground truth" if m is None else m.name, kind=P.kind, n_paths=n, steps=len(P.t))
+            if m is not None:  # as the analogy's rows: what tells the two algebras of one network apart
+                row["scheme"] = m.scheme if m.space == "operators" else "latent"
             for key in metrics[0]:
                 row[key] = float(np.nanmean([r[key] for r in metrics]))
             row["smoothness_max"] = float(np.nanmax([r["smoothness"] for r in metrics]))

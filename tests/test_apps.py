@@ -10,6 +10,7 @@ import torch
 import opnet
 from opnet import apps, train
 from opnet.data import generators
+from opnet.experiments import report
 from opnet.model import PointNetAutoencoder, build_model
 
 FAST = dict(hidden=64, batch_size=8, lr=1e-3, progress=False)
@@ -351,6 +352,9 @@ def test_benchmarks_rows(humans):
     alg = _vertex_algebra(humans)
     rows = apps.interpolation_benchmark(humans, [alg], P, progress=False)
     assert [r["method"] for r in rows] == ["Ground truth", "vertices"]
+    algebras = [_recording_algebra(humans, scheme)[0] for scheme in apps.SCHEMES]  # one network, two algebras
+    both = apps.interpolation_benchmark(humans, algebras, P, progress=False)[1:]
+    assert len({report.row_identity(dict(r, table="interpolation")) for r in both}) == len(apps.SCHEMES)
     assert rows[1]["endpoint_d_R"] < 1e-20  # vertex lerp keeps the ends
     assert rows[1]["d_R_truth"] > 0  # ... but is not the generator's in-between body
     Q = apps.analogy_quadruples(humans, "pose", 3)
