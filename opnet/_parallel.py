@@ -41,7 +41,7 @@ def _one_blas_thread(enter: bool) -> None:
     with _LOCK:
         if enter:
             if _STATE["active"] == 0:
-                _STATE["controller"] = _STATE["controller"] or ThreadpoolController()
+                _STATE["controller"] = ThreadpoolController()  # anew: a BLAS loaded since (torch's) is held too
                 _STATE["limiter"] = _STATE["controller"].limit(limits=1, user_api="blas")
             _STATE["active"] += 1
         else:
