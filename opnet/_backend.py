@@ -189,7 +189,7 @@ def _topology(faces):
             _TOPOLOGY.clear()
         e = unique_edges(f)
         _TOPOLOGY[key] = (
-            torch.tensor(e, dtype=torch.long, device=faces.device),  # a copy: e is read-only (kept)
+            torch.as_tensor(e, dtype=torch.long, device=faces.device),
             torch.as_tensor(corner_edges(f, e), dtype=torch.long, device=faces.device),
         )
     return _TOPOLOGY[key]

@@ -13,7 +13,7 @@ from threadpoolctl import ThreadpoolController
 
 __all__ = ["usable_cores", "thread_map"]
 
-_STATE = {"controller": None, "limiter": None, "active": 0}  # the one-thread BLAS, while any thread_map runs
+_STATE = {"limiter": None, "active": 0}  # the one-thread BLAS, while any thread_map runs
 _LOCK = threading.Lock()
 
 
@@ -41,8 +41,8 @@ def _one_blas_thread(enter: bool) -> None:
     with _LOCK:
         if enter:
             if _STATE["active"] == 0:
-                _STATE["controller"] = ThreadpoolController()  # anew: a BLAS loaded since (torch's) is held too
-                _STATE["limiter"] = _STATE["controller"].limit(limits=1, user_api="blas")
+                # a controller made anew each time: a BLAS loaded since (torch's) is held too
+                _STATE["limiter"] = ThreadpoolController().limit(limits=1, user_api="blas")
             _STATE["active"] += 1
         else:
             _STATE["active"] -= 1

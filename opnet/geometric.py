@@ -218,7 +218,7 @@ def reconstruct(
     module = ShapeDifferences(base_basis, channels, device=device)
     base = torch.tensor(base_basis.mesh.vertices, device=device)[None]
     faces = base_basis.mesh.faces
-    edges = torch.tensor(unique_edges(faces), device=device)  # a copy: the edges are read-only (kept)
+    edges = torch.as_tensor(unique_edges(faces), device=device)
     w = torch.as_tensor(cotan_edge_weights(base_basis.mesh.vertices, faces) / base_basis.mesh.area, device=device)
     with torch.no_grad():
         at_base = module(base)

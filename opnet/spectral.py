@@ -148,7 +148,7 @@ def _cotan_weights(edges: list, double_area: np.ndarray, faces: np.ndarray) -> n
     """
     cot = [-np.einsum("i...,i...->...", edges[(c + 2) % 3], edges[(c + 1) % 3]) / double_area for c in range(3)]
     cot = np.stack(cot, axis=-1)  # (..., m, 3): corner order, as the corner-to-edge matrix's rows
-    return 0.5 * _scatter(cot.reshape(*cot.shape[:-2], -1), _corner_to_edge(faces, unique_edges(faces)))
+    return 0.5 * _scatter(cot.reshape(*cot.shape[:-2], -1), _corner_to_edge(faces))
 
 
 def _lumped_areas(double_area: np.ndarray, faces: np.ndarray, n: int) -> np.ndarray:
@@ -156,14 +156,15 @@ def _lumped_areas(double_area: np.ndarray, faces: np.ndarray, n: int) -> np.ndar
     return _scatter(double_area / 6.0, _face_incidence(faces, n))
 
 
-def _corner_to_edge(faces: np.ndarray, edges: np.ndarray) -> sp.csr_matrix:
-    """Sparse ``(3m, e)`` matrix adding each corner's value to its opposite edge."""
+def _corner_to_edge(faces: np.ndarray) -> sp.csr_matrix:
+    """Sparse ``(3m, e)`` matrix adding each corner's value to its opposite edge (of ``unique_edges(faces)``)."""
 
     def build():
+        edges = unique_edges(faces)
         col = corner_edges(faces, edges)
         return sp.csr_matrix((np.ones(len(col)), (np.arange(len(col)), col)), shape=(len(col), len(edges)))
 
-    return _memo.by_content("corner to edge", (faces, edges), build)
+    return _memo.by_content("corner to edge", (faces,), build)
 
 
 def _scatter(values: np.ndarray, matrix: sp.spmatrix) -> np.ndarray:
