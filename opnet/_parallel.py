@@ -6,6 +6,7 @@ threads' matrix products do not oversubscribe the cores.
 from __future__ import annotations
 
 import os
+import sys
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
@@ -13,7 +14,8 @@ from threadpoolctl import ThreadpoolController
 
 __all__ = ["usable_cores", "thread_map"]
 
-_STATE = {"limiter": None, "active": 0}  # the one-thread BLAS, while any thread_map runs
+# the one-thread BLAS while any thread_map runs, and the controller that found the BLAS libraries
+_STATE = {"limiter": None, "active": 0, "controller": None, "modules": -1}
 _LOCK = threading.Lock()
 
 
@@ -41,8 +43,11 @@ def _one_blas_thread(enter: bool) -> None:
     with _LOCK:
         if enter:
             if _STATE["active"] == 0:
-                # a controller made anew each time: a BLAS loaded since (torch's) is held too
-                _STATE["limiter"] = ThreadpoolController().limit(limits=1, user_api="blas")
+                # the controller made again once Python has imported modules since: a BLAS loaded since (torch's)
+                # is held too (finding the libraries takes a few ms, a fifth of one shape's operators)
+                if _STATE["modules"] != len(sys.modules):
+                    _STATE["controller"], _STATE["modules"] = ThreadpoolController(), len(sys.modules)
+                _STATE["limiter"] = _STATE["controller"].limit(limits=1, user_api="blas")
             _STATE["active"] += 1
         else:
             _STATE["active"] -= 1
@@ -52,16 +57,17 @@ def _one_blas_thread(enter: bool) -> None:
 
 def thread_map(fn, items, *, threads: int | None = None):
     """``fn(item)`` for each of ``items`` (a sized sequence), in order, yielded as each finishes in order: in
-    ``threads`` threads (default :func:`usable_cores`, at most one per item) with a one-thread BLAS, or in this
-    thread when one is enough. ``fn`` must be safe to call from several threads at once.
+    ``threads`` threads (default :func:`usable_cores`, at most one per item), or in this thread when one is enough;
+    either way with a one-thread BLAS, so that the results do not depend on the number of threads (a BLAS sums in
+    an order that depends on its own thread count). ``fn`` must be safe to call from several threads at once.
     """
     threads = min(len(items), usable_cores() if threads is None else threads)
-    if threads <= 1:
-        yield from map(fn, items)
-        return
     _one_blas_thread(True)
     try:
-        with ThreadPoolExecutor(threads) as pool:
-            yield from pool.map(fn, items)
+        if threads <= 1:
+            yield from map(fn, items)
+        else:
+            with ThreadPoolExecutor(threads) as pool:
+                yield from pool.map(fn, items)
     finally:
         _one_blas_thread(False)

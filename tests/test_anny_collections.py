@@ -86,9 +86,12 @@ def test_resolutions_hold_the_same_shapes(humans, root):
 
 
 def test_same_seed_same_collection(humans, tmp_path):
-    rebuilt = opnet.data.load_collection("humans", "quick", tmp_path, progress=False)
+    rebuilt = opnet.data.load_collection("humans", "quick", tmp_path / "one", progress=False)
+    again = opnet.data.load_collection("humans", "quick", tmp_path / "two", progress=False)
+    np.testing.assert_array_equal(again.operators, rebuilt.operators)  # to the bit, by the same code
     np.testing.assert_array_equal(rebuilt.vertices, humans.vertices)
-    np.testing.assert_array_equal(rebuilt.operators, humans.operators)
+    # the fixture's may come from the data cache, written by an earlier opnet whose products rounded otherwise
+    np.testing.assert_allclose(rebuilt.operators, humans.operators, rtol=0, atol=1e-6 * np.abs(humans.operators).max())
     np.testing.assert_array_equal(rebuilt.split, humans.split)
     other = opnet.data.load_collection("humans", "quick", tmp_path, seed=1, progress=False)
     assert not np.array_equal(other.split, humans.split)

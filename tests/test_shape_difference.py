@@ -233,12 +233,26 @@ def test_kept_values_follow_the_arrays_contents():
 def test_gram_tables_give_the_direct_product(base_basis):
     rng = np.random.default_rng(0)
     phi = base_basis.evecs
-    w = rng.random((4, phi.shape[0]))
-    direct = np.einsum("pi,bp,pj->bij", phi, w, phi)
-    for _ in range(2):  # the table built, then kept
-        np.testing.assert_allclose(
-            opnet._backend.weighted_gram(phi, w), direct, rtol=0, atol=1e-13 * np.abs(direct).max()
-        )
+    for rows in (1, opnet._backend._TABLE_ROWS + 4):  # one product each, then the table
+        w = rng.random((rows, phi.shape[0]))
+        direct = np.einsum("pi,bp,pj->bij", phi, w, phi)
+        for _ in range(2):  # the table built, then kept
+            np.testing.assert_allclose(
+                opnet._backend.weighted_gram(phi, w), direct, rtol=0, atol=1e-13 * np.abs(direct).max()
+            )
+
+
+def test_the_number_of_threads_does_not_change_a_bit_of_the_operators(humans):
+    """The BLAS sums in an order that depends on its own thread count; every batch runs with one BLAS thread, so a
+    collection built with ``OPNET_THREADS=1`` equals one built with two (the extrinsic channel's ``K₀⁺`` amplifies
+    a change in the last bit to float32's)."""
+    import importlib
+
+    fast_path = importlib.import_module("opnet.shape_difference").fast_path
+    ips = opnet.inner_products.get_inner_products(KINDS)
+    V = humans.vertices[:256].astype(float)
+    one, two = (fast_path(humans.base_basis, V, ips, threads=t) for t in (1, 2))
+    np.testing.assert_array_equal(one, two)
 
 
 class GramInnerProduct(opnet.InnerProduct):
