@@ -1,5 +1,6 @@
 """Shared small meshes (a capsule base and smooth deformations of it, all in 1-1 correspondence), small collections
-of them (the factories ``tiny_collection`` and ``toy_collection``), and the quick humans generated once per session."""
+of them (the factories ``tiny_collection`` and ``toy_collection``), and the quick generated collections, read once
+per session through the data cache."""
 
 import json
 import subprocess
@@ -25,8 +26,8 @@ _MODULE_TIERS = {
     "test_bodies": "slow",  # the body model: its first use builds a cache for minutes
     "test_browser": "browser",
 }
-#: Fixtures that make a test slow: the generated humans (the body model builds them; minutes on a cold cache).
-_SLOW_FIXTURES = {"humans"}
+#: Fixtures that make a test slow: the generated collections (the body model builds them; minutes on a cold cache).
+_SLOW_FIXTURES = {"humans", "quick_collection"}
 
 
 def pytest_collection_modifyitems(config, items):
@@ -51,20 +52,32 @@ def root(tmp_path_factory):
     return tmp_path_factory.mktemp("collections")
 
 
-@pytest.fixture(scope="session")
-def humans(root):
-    """The quick humans, read from the session's data root (where the tests that build collections write).
-
-    They are built once into opnet's data cache (``OPNET_DATA_DIR``, else ``~/.cache/opnet``) and copied from there,
-    so that a later test run (and ``make run``) does not build them again; where that cache cannot be written, they
-    are built in the session's root. A test that needs a fresh build makes one in its own folder.
+def _through_data_cache(name: str, root: Path):
+    """The quick collection ``name``, read from the session's data root ``root``: built once into opnet's data cache
+    (``OPNET_DATA_DIR``, else ``~/.cache/opnet``) and copied from there, so that a later test run (and ``make run``)
+    does not build it again; where that cache cannot be written, built in ``root``.
     """
     try:
-        cached = opnet.data.load_collection("humans", "quick", progress=False)
-    except (opnet.data.CollectionError, OSError):  # an unusable cache: build them here instead
-        return opnet.data.load_collection("humans", "quick", root, progress=False)
+        cached = opnet.data.load_collection(name, "quick", progress=False)
+    except (opnet.data.CollectionError, OSError):  # an unusable cache: build it here instead
+        return opnet.data.load_collection(name, "quick", root, progress=False)
     opnet.data.save_collection(cached, root / stem_name(cached.meta))
-    return opnet.data.load_collection("humans", "quick", root, progress=False)
+    return opnet.data.load_collection(name, "quick", root, progress=False)
+
+
+@pytest.fixture(scope="session")
+def humans(root):
+    """The quick humans, read from the session's data root (where the tests that build collections write), through
+    the data cache (:func:`_through_data_cache`). A test that needs a fresh build makes one in its own folder.
+    """
+    return _through_data_cache("humans", root)
+
+
+@pytest.fixture(scope="session")
+def quick_collection(root):
+    """``name`` → the quick collection ``name`` (``heads``, ``hands`` …), through the data cache like ``humans``: the
+    body model builds one for minutes, and notebook 05 reads the same files."""
+    return lambda name: _through_data_cache(name, root)
 
 
 @pytest.fixture(scope="session")

@@ -107,8 +107,8 @@ def test_unknown_names_and_presets(root):
 @pytest.mark.parametrize(
     "name, n_vertices, motions", [("heads", 4200, heads.HEAD_EXPRESSIONS), ("hands", 1609, hands.HAND_GESTURES)]
 )
-def test_part_collections(root, name, n_vertices, motions):
-    coll = opnet.data.load_collection(name, "quick", root, progress=False)
+def test_part_collections(root, quick_collection, name, n_vertices, motions):
+    coll = quick_collection(name)
     assert coll.vertices.shape[1:] == (n_vertices, 3) and coll.operators.shape[1:] == (3, 60, 60)
     assert set(coll.params["motion"]) == set(motions) | {"random"}
     assert len(set(coll.subcollection[coll.split == "test"])) == 10
