@@ -10,8 +10,8 @@
 #   make ship-results  copy build/reproduce-default's results.json and figures into the package
 #               (opnet/experiments/results/default/: what the notebooks and the docs show as the shipped `default`)
 #   make benchmarks  measure again the benchmarks the docs show, into benchmarks/results/*.json (an idle machine;
-#               about 20 min on 2 cores, most of it the PointNet one); the results page's ones (matching, refinement,
-#               scaling, variants) read the default reproduction's networks: make benchmarks-results (hours)
+#               about 20 min on 2 cores, most of it the PointNet one); the ones that train or read networks (matching,
+#               refinement, scaling, variants, offset channels): make benchmarks-results (hours)
 PYTHON ?= python3
 VENV   ?= .venv
 PRESET ?= quick
@@ -91,6 +91,8 @@ benchmarks-results: $(STAMP)
 		--json results/refinement.json
 	cd benchmarks && ../$(PY) scaling.py --preset quick --epochs 80 --seeds 0 1 2 3 --json results/scaling.json
 	cd benchmarks && ../$(PY) variants.py --preset default --out ../build/variants-default --json results/variants.json
+	cd benchmarks && ../$(PY) offset_channels.py --preset default --runs ../build/offset-channels-default \
+		--json results/offset_channels.json
 
 clean:
 	rm -rf build $(VENV) .venv-core

@@ -54,3 +54,16 @@ def test_every_shipped_benchmark_result_renders(path):
     result = json.loads(path.read_text())
     report = script(path.stem).report(result)
     assert "|---" in report and result["date"] in report
+
+
+@pytest.mark.slow
+def test_the_offset_channel_benchmark_trains_each_set_and_reports_it_against_the_papers(tmp_path):
+    bench = script("offset_channels")
+    args = bench.parse_args(["--preset", "quick", "--runs", str(tmp_path), "--epochs", "1"])
+    result = json.loads(json.dumps(bench.measure(args)))  # as the docs read it back
+    nets = [r for r in result["rows"] if r["method"] == "OperatorNet"]
+    assert {(r["channels"], r["split"]) for r in nets} == {(c, s) for c in bench.SETS for s in bench.SPLITS}
+    assert all(r["epochs"] == 1 and r["train_seconds"] > 0 and r["d_R"] > 0 for r in nets)
+    assert sum(r["method"] == "Nearest neighbour" for r in result["rows"]) == len(nets)
+    report = bench.report(result)
+    assert report.count("| OperatorNet |") == 3 and "Int+Off's d_R / on Int+Ext's" in report
