@@ -20,7 +20,13 @@ sys.path.insert(0, str(ROOT / "docs" / "_scripts"))
 from generated import benchmark_report, results_fragments  # noqa: E402
 
 #: the page each shipped ``benchmarks/results/<name>.json`` is rendered on, when not the benchmarks page
-RESULT_PAGES = {"matching": "results", "refinement": "results", "scaling": "results", "variants": "results"}
+RESULT_PAGES = {
+    "matching": "results",
+    "refinement": "results",
+    "scaling": "results",
+    "variants": "results",
+    "offset_channels": "inner_products",
+}
 REMOTE_ASSET = re.compile(r"<(?:script|link|img)\b[^>]*\b(?:src|href)=\"(?:https?:)?//[^\"]+\"")
 
 
