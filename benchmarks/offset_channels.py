@@ -17,7 +17,7 @@ Run::
 
     .venv/bin/python benchmarks/offset_channels.py --preset quick --runs build/offset-channels-quick
     .venv/bin/python benchmarks/offset_channels.py --preset default --runs build/offset-channels-default \\
-        --json results/offset_channels.json        # about 35 min on 2 idle cores
+        --json results/offset_channels.json        # 3 networks, about 15 min each on 2 cores
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def measure(args) -> dict:
 
     info = machine_info(None) | {"torch": torch.__version__, "torch_threads": torch.get_num_threads()}
     budget = BUDGETS[args.preset]
-    epochs = args.epochs or budget.epochs
+    epochs = budget.epochs if args.epochs is None else args.epochs
     kinds = list(dict.fromkeys(k for channels in SETS.values() for k in channels))
     coll = opnet.data.load_collection("humans", args.preset).with_kinds(kinds)
     results = opnet.ablation(
@@ -79,7 +79,7 @@ def measure(args) -> dict:
     rows = []
     for r in results:
         row = dict(
-            channels=names[tuple(r["channels"])],
+            channels=names.get(tuple(r["channels"]), "+".join(r["channels"])),
             method="Nearest neighbour" if r.get("depth") is None else "OperatorNet",
             split=r["split"],
             n_shapes=r["n_shapes"],
@@ -107,8 +107,9 @@ def measure(args) -> dict:
     }
 
 
-def _cell(row: dict) -> str:
-    return f"{1e4 * row['d_R']:.3g} ({1e4 * row['d_R_median']:.3g})"
+def _cell(row: dict | None) -> str:
+    """``d_R (median)`` ×10⁻⁴ of a row, ``–`` for a split not measured."""
+    return "–" if row is None else f"{1e4 * row['d_R']:.3g} ({1e4 * row['d_R_median']:.3g})"
 
 
 def report(result: dict) -> str:

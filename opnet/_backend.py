@@ -31,8 +31,8 @@ __all__ = [
 # of a whole table kept for the next batch on the same basis (~128 MB: k = 60 on up to ~8700 rows).
 _TABLE_ENTRIES = 4_000_000
 _KEPT_TABLE_ENTRIES = 16_000_000
-# Below this many weight vectors one product each is faster than reading the table (2 cores, k = 60, 2800 rows: 1.9
-# against 5.5 ms for one vector, even with the table kept; even at 16)
+# Below this many weight vectors one product each is faster than reading the table, even a kept one (2 cores, k = 60,
+# 2800 rows: 1.9 against 5.5 ms for one vector, 12 ms either way for 16)
 _TABLE_ROWS = 16
 
 
@@ -83,7 +83,8 @@ def weighted_gram(phi, weights):
     numpy: for a batch of weight vectors the product is linear in ``w``, one matrix product ``w @ T`` with the
     table ``T[p, (i, j)] = Φ[p, i] Φ[p, j]`` (upper triangle), several times faster than one product per shape;
     for a batch, the table is kept for the next batch with the same ``Φ`` (built in chunks of rows, and not kept,
-    when large); fewer than ``_TABLE_ROWS`` weight vectors take one product each.
+    when large); fewer than ``_TABLE_ROWS`` weight vectors take one product each (the two agree to rounding, so a
+    shape's operators may differ in the last bits with the size of its batch). Always float64 and exactly symmetric.
     torch: one batched product (autograd through ``w``).
     """
     if is_tensor(weights):
@@ -92,10 +93,10 @@ def weighted_gram(phi, weights):
         return phi.T @ (weights[:, None] * phi)
     k = phi.shape[1]
     flat = weights.reshape(-1, weights.shape[-1])
-    if len(flat) < _TABLE_ROWS:  # a few shapes: building the table would cost more than the products
-        return np.stack([phi.T @ (w[:, None] * phi) for w in flat]).reshape(*weights.shape[:-1], k, k)
     iu, ju = np.triu_indices(k)
-    if phi.shape[0] * len(iu) <= _KEPT_TABLE_ENTRIES:  # batches of one basis: the table reused
+    if len(flat) < _TABLE_ROWS:  # a few shapes: building the table would cost more than the products
+        upper = np.array([(phi.T @ (w[:, None] * phi))[iu, ju] for w in flat]).reshape(len(flat), len(iu))
+    elif phi.shape[0] * len(iu) <= _KEPT_TABLE_ENTRIES:  # batches of one basis: the table reused
         upper = flat @ _memo.by_content("gram table", (phi,), lambda: _gram_table(phi, iu, ju))
     else:
         upper = np.zeros((len(flat), len(iu)))

@@ -44,7 +44,8 @@ def _one_blas_thread(enter: bool) -> None:
         if enter:
             if _STATE["active"] == 0:
                 # the controller made again once Python has imported modules since: a BLAS loaded since (torch's)
-                # is held too (finding the libraries takes a few ms, a fifth of one shape's operators)
+                # is held too (finding the libraries takes a few ms, a fifth of one shape's operators). A BLAS
+                # loaded without a new module (ctypes) is missed until the next import.
                 if _STATE["modules"] != len(sys.modules):
                     _STATE["controller"], _STATE["modules"] = ThreadpoolController(), len(sys.modules)
                 _STATE["limiter"] = _STATE["controller"].limit(limits=1, user_api="blas")
@@ -55,14 +56,18 @@ def _one_blas_thread(enter: bool) -> None:
                 _STATE["limiter"].restore_original_limits()
 
 
-def thread_map(fn, items, *, threads: int | None = None):
+def thread_map(fn, items, *, threads: int | None = None, hold_blas: bool = True):
     """``fn(item)`` for each of ``items`` (a sized sequence), in order, yielded as each finishes in order: in
-    ``threads`` threads (default :func:`usable_cores`, at most one per item), or in this thread when one is enough;
-    either way with a one-thread BLAS, so that the results do not depend on the number of threads (a BLAS sums in
-    an order that depends on its own thread count). ``fn`` must be safe to call from several threads at once.
+    ``threads`` threads (default :func:`usable_cores`, at most one per item), or in this thread when one is enough.
+    ``fn`` must be safe to call from several threads at once.
+
+    With ``hold_blas`` (default) the BLAS runs one thread meanwhile, also in this thread, so that the results do not
+    depend on the number of threads (a BLAS sums in an order that depends on its own thread count). Close the
+    generator (``contextlib.closing``) when a caller may stop before the end: the BLAS gets its threads back then.
     """
     threads = min(len(items), usable_cores() if threads is None else threads)
-    _one_blas_thread(True)
+    if hold_blas:
+        _one_blas_thread(True)
     try:
         if threads <= 1:
             yield from map(fn, items)
@@ -70,4 +75,5 @@ def thread_map(fn, items, *, threads: int | None = None):
             with ThreadPoolExecutor(threads) as pool:
                 yield from pool.map(fn, items)
     finally:
-        _one_blas_thread(False)
+        if hold_blas:
+            _one_blas_thread(False)

@@ -239,7 +239,8 @@ def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_si
             f"units (first: shape {i}, {spans[i]:.3g}), where float64 areas and the extrinsic operator "
             "under- or overflow; rescale the coordinates."
         )
-    worst = thread_map(lambda s: _quality(vertices[s : s + batch_size], faces).min(-1), batches)
+    # elementwise numpy: no BLAS to hold
+    worst = thread_map(lambda s: _quality(vertices[s : s + batch_size], faces).min(-1), batches, hold_blas=False)
     quality = np.concatenate([np.zeros(0), *worst])
     for what, limit in (("zero-area (collapsed)", REFUSE_QUALITY), ("near-degenerate", WARN_QUALITY)):
         low = quality < limit

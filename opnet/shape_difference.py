@@ -13,6 +13,7 @@ Two ways to evaluate ``Cᵀ K_i C``:
 
 from __future__ import annotations
 
+from contextlib import closing
 from pathlib import Path
 
 import numpy as np
@@ -185,10 +186,11 @@ def fast_path(
     products ``ips``; for callers that validated their input once already. ``k0_pinv``: the base's
     :func:`base_pinvs` of ``ips`` when the caller computed them already (a loop over chunks of shapes).
 
-    Batches of the built-in channels run in ``threads`` threads (default one per usable core), each with a
-    single-threaded BLAS (numpy's elementwise geometry uses one core: two batches side by side use both); any other
-    channel's batches run one after the other in this thread (its ``project_batch`` may not be safe to call from two
-    threads). Memory grows as ``threads · batch_size · (faces + k²)``.
+    Batches of the built-in channels run in ``threads`` threads (default one per usable core) with a single-threaded
+    BLAS, also when one thread is enough (numpy's elementwise geometry uses one core: two batches side by side use
+    both; and the operators do not depend on the number of threads); any other channel's batches run one after the
+    other in this thread, with the BLAS's threads (its ``project_batch`` may not be safe to call from two threads).
+    Memory grows as ``threads · batch_size · (faces + k²)``.
     """
     phi, faces = base_basis.evecs, base_basis.mesh.faces
     k0_pinv = base_pinvs(base_basis, ips) if k0_pinv is None else k0_pinv
@@ -201,16 +203,12 @@ def fast_path(
             out[s : s + len(chunk), c] = left_multiply(kp, gram)
 
     show = len(starts) > 1 if progress is None else progress
-    if not all(map(is_built_in, ips)):
-        threads = 1  # a channel of one's own: in this thread
-    for _ in tqdm(
-        thread_map(one, starts, threads=threads),
-        total=len(starts),
-        desc="shape differences",
-        unit="batch",
-        disable=not show,
-    ):
-        pass
+    built_in = all(map(is_built_in, ips))
+    if not built_in:
+        threads = 1  # a channel of one's own: in this thread, with the BLAS's threads (they are its own to use)
+    with closing(thread_map(one, starts, threads=threads, hold_blas=built_in)) as batches:
+        for _ in tqdm(batches, total=len(starts), desc="shape differences", unit="batch", disable=not show):
+            pass
     return out
 
 
