@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from shape_differences import load_span, machine_info, measured, run_benchmark
+from shape_differences import load_span, measured, run_benchmark, torch_machine_info
 
 import opnet
 
@@ -75,13 +75,12 @@ def mean_d_R(net, operators, truth) -> float:
 
 def measure(args) -> dict:
     """Run the benchmark described by ``args`` (:func:`parse_args`); everything it measured, as JSON-able data."""
-    import torch
 
     from opnet.data import humans
     from opnet.data.generators import generate_shapes, resolution_map
     from opnet.matching import SurfaceMap, compute_map, operators_through_map
 
-    info = machine_info(None) | {"torch": torch.__version__, "torch_threads": torch.get_num_threads()}
+    info = torch_machine_info()
     ds = opnet.data.load_collection("humans", args.preset)
     basis = ds.base_basis
     val = ds.indices("val")

@@ -27,7 +27,7 @@ import os
 import sys
 import time
 
-from shape_differences import load_span, machine_info, measured, run_benchmark
+from shape_differences import load_span, measured, run_benchmark, torch_machine_info
 
 import opnet
 
@@ -54,11 +54,10 @@ def parse_args(argv=None):
 
 def measure(args) -> dict:
     """Run the benchmark described by ``args`` (:func:`parse_args`); everything it measured, as JSON-able data."""
-    import torch
 
     from opnet.reproduce import BUDGETS
 
-    info = machine_info(None) | {"torch": torch.__version__, "torch_threads": torch.get_num_threads()}
+    info = torch_machine_info()
     budget = BUDGETS[args.preset]
     epochs = budget.epochs if args.epochs is None else args.epochs
     kinds = list(dict.fromkeys(k for channels in SETS.values() for k in channels))

@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from shape_differences import load_span, machine_info, measured, run_benchmark
+from shape_differences import load_span, measured, run_benchmark, torch_machine_info
 
 import opnet
 
@@ -70,13 +70,12 @@ def parse_args(argv=None):
 
 def measure(args) -> dict:
     """Run the benchmark described by ``args`` (:func:`parse_args`); everything it measured, as JSON-able data."""
-    import torch
 
     from opnet.evaluate import predict
     from opnet.geometric import truncate_operators
     from opnet.reproduce import run_path
 
-    info = machine_info(None) | {"torch": torch.__version__, "torch_threads": torch.get_num_threads()}
+    info = torch_machine_info()
     coll = opnet.data.load_collection("humans", args.preset)
     out = Path(args.reproduce_dir).expanduser() if args.reproduce_dir else None
     out = out or opnet.data.default_root() / f"reproduce-{args.preset}"

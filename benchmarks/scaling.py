@@ -19,7 +19,7 @@ import os
 import time
 
 import numpy as np
-from shape_differences import load_span, machine_info, measured, run_benchmark
+from shape_differences import load_span, measured, run_benchmark, torch_machine_info
 
 import opnet
 
@@ -36,9 +36,8 @@ def parse_args(argv=None):
 
 def measure(args) -> dict:
     """Run the benchmark described by ``args`` (:func:`parse_args`); everything it measured, as JSON-able data."""
-    import torch
 
-    info = machine_info(None) | {"torch": torch.__version__, "torch_threads": torch.get_num_threads()}
+    info = torch_machine_info()
     ds = opnet.data.load_collection("humans", args.preset)
     rows = []
     for seed in args.seeds:

@@ -302,6 +302,14 @@ def machine_info(pyfm_version):
     return info
 
 
+def torch_machine_info() -> dict:
+    """:func:`machine_info` with torch's version and its thread count: the machine line of the benchmarks that train
+    or run torch."""
+    import torch
+
+    return machine_info(None) | {"torch": torch.__version__, "torch_threads": torch.get_num_threads()}
+
+
 def measured(date: str, machine: dict) -> str:
     """The line saying when and on what a result was measured."""
     return f"Measured {date}: " + "; ".join(f"{k} {v}" for k, v in machine.items() if v is not None) + "."
