@@ -23,7 +23,7 @@ _MODULE_TIERS = {
     "test_matching": "maps",
     "test_mapped": "maps",
     "test_anny_collections": "slow",
-    "test_bodies": "slow",  # the body model: its first use builds a cache for minutes
+    "test_bodies": "slow",  # the body model: its first use builds a cache (about 15 s a model)
     "test_browser": "browser",
 }
 #: Fixtures that make a test slow: the generated collections (the body model builds them; minutes on a cold cache).

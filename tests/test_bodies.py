@@ -253,6 +253,47 @@ def test_an_unsupported_anny_is_named_at_import(found):
         anny_adapter._check_anny_version(ok)
 
 
+class _Unmoved:
+    """A world transformation that leaves the blend shape as parsed."""
+
+    def apply(self, x):
+        return x
+
+
+def test_the_blend_shape_parser_gives_annys_tensors_bit_for_bit(tmp_path):
+    """opnet parses anny's blend-shape files with numpy (the models' first build, minutes → seconds); on shipped files
+    of every size, and on a vertex named twice, the tensors equal anny's own parser's to the bit, in both dtypes; a
+    file anny would refuse is left to anny, which raises its own error."""
+    import gzip
+
+    from anny.models import full_model
+
+    anny_adapter._prepare_anny()
+    ours = full_model.load_blend_shape
+    assert ours.func is anny_adapter._load_blend_shape  # installed by every model build
+    annys = ours.args[0]
+    files = sorted((full_model.get_anny_root_dir() / "data").rglob("*.target.gz"), key=lambda f: f.stat().st_size)
+    assert len(files) > 1000
+    twice = tmp_path / "twice.target.gz"
+    with gzip.open(twice, "wt") as f:
+        f.write("2 0.1 0.2 0.3\n0 1e-3 -2.5 7\n2 -0.4 0.5 0.6\n")
+    sample = [*files[:: len(files) // 6], files[-1], twice]
+    for path in sample:
+        for dtype in (torch.float32, torch.float64):
+            expected = annys(path, 20000, _Unmoved(), dtype)
+            assert torch.equal(ours(path, 20000, _Unmoved(), dtype), expected), path
+    assert ours(twice, 3, _Unmoved(), torch.float64)[2].tolist() == [-0.4, 0.5, 0.6]  # the last line wins
+    bad = {"outside": "0 0.1 0.2 0.3\n5 0 0 0\n", "short": "0 0.1 0.2\n1 0 0 0\n", "text": "0 0.1 0.2 x\n"}
+    for name, text in bad.items():
+        path = tmp_path / f"{name}.target.gz"
+        with gzip.open(path, "wt") as f:
+            f.write(text)
+        with pytest.raises(Exception) as annys_error:
+            annys(path, 3, _Unmoved(), torch.float64)
+        with pytest.raises(type(annys_error.value)):
+            ours(path, 3, _Unmoved(), torch.float64)
+
+
 def test_editing_the_model_building_code_rebuilds_the_cached_model(tmp_path, monkeypatch):
     """Anny caches the decimated bodies' model data under a key of the builder's arguments; the key includes a
     digest of opnet's building code, so an edited builder is run again instead of answered from the old cache."""
