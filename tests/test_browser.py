@@ -1,16 +1,13 @@
 """The widgets in a real JupyterLab, and the documentation site, in Chromium (Debian's, driven by Playwright).
 
 - ``test_explorers_follow_their_controls_in_jupyterlab`` starts JupyterLab on localhost (a token, a temporary root
-  folder, its own config and settings folders), opens a small notebook in Chromium, runs it with *Run → Run All
-  Cells*, then moves the interpolation explorer's ``t`` slider (arrow keys on its handle) and changes a dropdown
-  of each explorer, and checks every time that the rendered picture (the ``ipywidgets.Image``) changes.
-  That notebook is written here, not notebook 05 itself: notebook 05 takes minutes at ``quick`` (191 s cold on an idle
-  2-core machine; run whole with warm caches on a busy one, measured 2026-12-02, it had not finished after 9.5 min: it
-  decodes the benchmarks' answers and trains small networks), and it would make this test depend on the reproduction's
-  run folders (the networks of notebooks 03 and 04). The test notebook holds a setup cell of its own (the quick humans
-  from the ``humans`` fixture, an OperatorNet trained for one epoch, nearest neighbour) and notebook 05's two explorer
-  cells copied verbatim (found by their source), so the explorers run exactly as the tutorial calls them.
-  ``OPNET_STATIC_WIDGETS`` is removed from the kernel's environment: the widgets are live here.
+  folder, its own config and settings folders), opens notebook 05 (a copy, in that folder) in Chromium, runs it whole
+  with *Run → Run All Cells* at the ``quick`` preset, then moves the interpolation explorer's ``t`` slider (arrow keys
+  on its handle) and changes a dropdown of each explorer, and checks every time that the rendered picture (the
+  ``ipywidgets.Image``) changes. ``OPNET_STATIC_WIDGETS`` is removed from the kernel's environment: the widgets are
+  live here. The kernel reads and writes the data cache as the notebook does anywhere (``OPNET_DATA_DIR``, else
+  ``~/.cache/opnet``): the networks it trains there are the ones the notebooks' own test (nbval) then loads, so the
+  notebook's training is paid once per test run (about three and a half minutes from empty caches on 2 cores).
 - ``test_tutorial_pages_show_their_figures_and_tables`` serves the documentation site (built once per session,
   the ``docs_site`` fixture shared with ``tests/test_docs_site.py``) on localhost and opens every tutorial page:
   each has figures, every ``<img>`` has loaded (``naturalWidth > 0``), at least as many as the notebook's saved
@@ -39,6 +36,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 CHROMIUM = Path("/usr/bin/chromium")
+NOTEBOOK = ROOT / "notebooks" / "05_interpolation_analogy.ipynb"  # the notebook whose explorers are driven
 #: Headless and off the network: without these flags Chromium's background connections are refused and it stalls.
 CHROMIUM_ARGS = [
     "--no-sandbox",
@@ -50,7 +48,7 @@ CHROMIUM_ARGS = [
     "--no-first-run",
 ]
 STEP_MS = 60_000  # the longest wait of one step in the browser (a render after a control changes, a page load)
-RUN_ALL_S = 240  # the notebook's Run All: JupyterLab and the kernel start, imports, one training epoch, two renders
+RUN_ALL_S = 900  # notebook 05's Run All: ~3.5 min from empty caches on 2 idle cores, ~1 min with its networks trained
 
 sync_api = pytest.importorskip("playwright.sync_api", reason="needs Playwright: pip install -e '.[browser]'")
 if not CHROMIUM.is_file():
@@ -84,52 +82,20 @@ def browser(tmp_path_factory):
 # -- JupyterLab ------------------------------------------------------------------------------------------------
 
 
-def explorer_cells(notebook: Path) -> list[str]:
-    """The sources of the notebook's code cells that build and show an explorer, in order."""
-    cells = json.loads(notebook.read_text())["cells"]
-    sources = ["".join(c["source"]) for c in cells if c["cell_type"] == "code"]
-    found = [s for s in sources if "widgets.interpolation_explorer(" in s or "widgets.analogy_explorer(" in s]
-    assert [("interpolation" in s) for s in found] == [True, False], (
-        f"{notebook.name} should hold one cell calling widgets.interpolation_explorer and then one calling "
-        f"widgets.analogy_explorer; found {len(found)} explorer cells"
-    )
-    return found
-
-
-def code_cell(source: str, i: int) -> dict:
-    return {
-        "cell_type": "code",
-        "id": f"cell-{i}",
-        "metadata": {},
-        "source": source,
-        "outputs": [],
-        "execution_count": None,
-    }
-
-
 @pytest.fixture(scope="module")
-def lab(tmp_path_factory, humans, root):
-    """``(url, notebook name)``: JupyterLab serving a folder with the explorers' notebook; stopped afterwards."""
+def lab(tmp_path_factory, humans, quick_collection):
+    """``(url, home)``: JupyterLab serving a folder with a copy of notebook 05 (outputs cleared); stopped afterwards.
+    The quick humans, heads and hands are in the data cache first (the fixtures), as notebook 02 leaves them.
+    """
     home = tmp_path_factory.mktemp("jupyterlab")
     served = home / "root"
     served.mkdir()
-    setup = (  # notebook 05's explorer cells read ds (the quick humans) and fast (the methods without refinement)
-        "import opnet\n"
-        "from opnet import apps, train, widgets\n\n"
-        "assert widgets.interactive()  # live widgets: OPNET_STATIC_WIDGETS is not set\n"
-        f"ds = opnet.data.load_collection('humans', 'quick', {str(root)!r}, progress=False)\n"
-        "net, _ = train.fit(ds, variant='ours', epochs=1, batch_size=16, progress=False)  # seconds; any net will do\n"
-        "fast = [apps.operatornet_algebra(net, ds), apps.nearest_neighbour_algebra(ds)]\n"
-        "print('setup done')"
-    )
-    sources = [setup, *explorer_cells(ROOT / "notebooks" / "05_interpolation_analogy.ipynb")]
-    notebook = {
-        "cells": [code_cell(s, i) for i, s in enumerate(sources)],
-        "metadata": {"kernelspec": {"name": "python3", "display_name": "Python 3", "language": "python"}},
-        "nbformat": 4,
-        "nbformat_minor": 5,
-    }
-    (served / "explorers.ipynb").write_text(json.dumps(notebook, indent=1))
+    quick_collection("heads"), quick_collection("hands")
+    notebook = json.loads(NOTEBOOK.read_text())
+    for cell in notebook["cells"]:
+        if cell["cell_type"] == "code":
+            cell["outputs"], cell["execution_count"] = [], None
+    (served / NOTEBOOK.name).write_text(json.dumps(notebook, indent=1))
     env = {k: v for k, v in os.environ.items() if k != "OPNET_STATIC_WIDGETS"}
     env.update(
         OPNET_PRESET="quick",
@@ -141,7 +107,8 @@ def lab(tmp_path_factory, humans, root):
     )
     settings = {  # no news or update check (a notification would ask), no kernel dialog: the notebook's kernel
         "apputils-extension/notification": {"fetchNews": "false", "checkForUpdates": False},
-        "notebook-extension/tracker": {"autoStartDefaultKernel": True},
+        # every cell laid out: off-screen cells are otherwise skipped (content-visibility), their text reads empty
+        "notebook-extension/tracker": {"autoStartDefaultKernel": True, "windowingMode": "none"},
     }
     for name, values in settings.items():
         path = home / "settings" / "@jupyterlab" / f"{name}.jupyterlab-settings"
@@ -176,7 +143,7 @@ def lab(tmp_path_factory, humans, root):
                 pass
             assert time.monotonic() < deadline, f"JupyterLab did not answer:\n{(home / 'server.log').read_text()}"
             time.sleep(0.5)
-        yield f"{url}/lab/tree/explorers.ipynb?token={token}", home
+        yield f"{url}/lab/tree/{NOTEBOOK.name}?token={token}", home
     finally:
         server.terminate()
         try:
@@ -214,17 +181,23 @@ def test_explorers_follow_their_controls_in_jupyterlab(browser, lab, tmp_path):
 
     outputs = page.locator(".jp-OutputArea-output")
     images = page.locator(".jp-OutputArea-output img.widget-image")
+    running = page.locator(".jp-InputPrompt", has_text="[*]")  # cells queued or running
     deadline = time.monotonic() + RUN_ALL_S
-    while images.count() < 2 or not all(images.nth(i).evaluate("i => i.naturalWidth > 0") for i in range(2)):
+
+    def done() -> bool:  # every cell has run, and both explorers show a picture
+        rendered = images.count() == 2 and all(images.nth(i).evaluate("i => i.naturalWidth > 0") for i in range(2))
+        return rendered and running.count() == 0
+
+    while not done():
         if outputs.filter(has_text="Traceback").count() or time.monotonic() > deadline:
             page.screenshot(path=tmp_path / "failed.png", full_page=True)
             text, log = "\n".join(outputs.all_inner_texts()), (home / "server.log").read_text()
             pytest.fail(
-                f"the explorers did not render ({tmp_path / 'failed.png'}); outputs:\n{text[-6000:]}\n"
+                f"{NOTEBOOK.name} did not run to the end with its explorers rendered ({tmp_path / 'failed.png'}); "
+                f"outputs:\n{text[-6000:]}\n"
                 f"JupyterLab's log:\n{log[-3000:]}"
             )
-        time.sleep(0.5)
-    page.locator(".jp-StatusBar-Widget", has_text="| Idle").first.wait_for()  # every cell has run
+        time.sleep(1.0)
     explorers = outputs.filter(has=page.locator("img.widget-image"))
     interpolation, analogy = explorers.nth(0), explorers.nth(1)
 

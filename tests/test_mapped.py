@@ -144,3 +144,10 @@ def test_a_build_resumed_with_other_chunk_sizes_recomputes_what_does_not_fit(few
     again = mapped_collection(few, "1k", "true", root=tmp_path, n_jobs=1, chunk=8, progress=False, rebuild=True)
     assert calls == [6]  # rebuild: everything again, in one chunk
     np.testing.assert_allclose(again.operators, same.operators, atol=1e-6)  # the generator's batches: round-off
+
+
+def test_a_few_shapes_are_spread_over_every_process():
+    assert mapped_module._chunk_size(12, 32, 2) == 6  # notebook 04's dozen shapes: a part per core
+    assert mapped_module._chunk_size(13, 32, 2) == 7
+    assert mapped_module._chunk_size(5856, 32, 2) == 32  # a collection: parts of chunk
+    assert mapped_module._chunk_size(12, 32, 1) == 12 and mapped_module._chunk_size(1, 32, 4) == 1

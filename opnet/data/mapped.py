@@ -91,7 +91,8 @@ def mapped_collection(
     n_jobs : int
         Processes computing maps (joblib's convention: ``-1`` all cores, ``-2`` all but one).
     chunk : int
-        Shapes per stored part (what an interruption can lose at most, per process).
+        Shapes per stored part (what an interruption can lose at most, per process); fewer when the shapes would not
+        give every process a part (a dozen shapes on 2 cores: two parts of 6, both cores busy).
     k : int
         Functions at the end of ZoomOut (:func:`opnet.matching.compute_map`).
     kinds : channels, optional
@@ -200,6 +201,7 @@ def _compute(
 
     from ..spectral import eigenbasis
 
+    chunk = _chunk_size(len(source), chunk, joblib.effective_n_jobs(n_jobs))
     starts = range(0, len(source), chunk)
     paths = {s: stem.with_name(f"{stem.name}.part-{s:07d}-{min(s + chunk, len(source)):07d}.npz") for s in starts}
     done = {}
@@ -236,6 +238,11 @@ def _compute(
             bar.update(len(result[0]))
     bar.close()
     return [done[s] for s in starts]
+
+
+def _chunk_size(n_shapes: int, chunk: int, workers: int) -> int:
+    """Shapes per part: ``chunk``, or fewer where ``n_shapes`` would leave some of the ``workers`` processes idle."""
+    return max(1, min(chunk, -(-n_shapes // workers)))
 
 
 def _map_chunk(base_basis, spectrum, vertices, faces, true_to_base, ips):
