@@ -39,7 +39,14 @@ import numpy as np
 
 from . import _backend as B
 from ._checks import describe
-from .spectral import areas_and_cotan_weights, cotan_edge_weights, vertex_areas, vertex_normals
+from .mesh import REFUSE_QUALITY
+from .spectral import (
+    areas_and_cotan_weights,
+    areas_weights_and_worst_quality,
+    cotan_edge_weights,
+    vertex_areas,
+    vertex_normals,
+)
 
 __all__ = [
     "InnerProduct",
@@ -338,15 +345,24 @@ def checked_gram(ip: InnerProduct, method: str, *args) -> np.ndarray:
     return K
 
 
-def batch_grams(ips, vertices: np.ndarray, faces: np.ndarray, evecs: np.ndarray) -> list:
+def batch_grams(ips, vertices: np.ndarray, faces: np.ndarray, evecs: np.ndarray, worst=None) -> list | None:
     """``Φᵀ M_b Φ`` ``(B, k, k)`` of each inner product in ``ips`` for shapes ``(B, n, 3)`` sharing ``faces`` (the
     fast path's batch). The paper's three built-ins share one pass over the faces (their operators need only the
     vertex areas and the cotan weights); any other is its :meth:`~InnerProduct.project_batch`, checked
     (:func:`checked_gram`).
+
+    ``worst``: an array ``(B,)`` to fill with each shape's worst face quality from that pass
+    (``opnet.spectral.areas_weights_and_worst_quality``; the shapes' spans checked already); then ``None`` is
+    returned, and no operator computed, where a shape has a collapsed face (quality below
+    ``opnet.mesh.REFUSE_QUALITY``).
     """
     paper = (AreaInnerProduct, ConformalInnerProduct, ExtrinsicInnerProduct)
     kind = [type(ip) if type(ip) in paper and is_built_in(ip) else None for ip in ips]
-    if ConformalInnerProduct in kind:
+    if worst is not None:
+        areas, weights, worst[:] = areas_weights_and_worst_quality(vertices, faces, ConformalInnerProduct in kind)
+        if (worst < REFUSE_QUALITY).any():
+            return None
+    elif ConformalInnerProduct in kind:
         areas, weights = areas_and_cotan_weights(vertices, faces)
     elif any(kind):
         areas = vertex_areas(vertices, faces)

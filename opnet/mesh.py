@@ -25,6 +25,8 @@ __all__ = [
     "MeshWarning",
     "face_quality",
     "check_shapes",
+    "check_spans",
+    "report_quality",
     "span",
     "load_mesh",
     "unique_edges",
@@ -193,7 +195,9 @@ class MeshWarning(UserWarning):
 
 def span(vertices: np.ndarray) -> np.ndarray:
     """Bounding-box diagonal ``(...)`` of shapes ``(..., n, 3)`` (length unit), without overflow at any scale."""
-    extent = vertices.max(-2) - vertices.min(-2)  # (..., 3): inf only beyond the dtype's range, out of range anyway
+    # (..., 3): inf only beyond the dtype's range, out of range anyway; a coordinate at a time, along the contiguous
+    # rows (a reduction over the middle axis of (..., n, 3) is 20× slower: 66 against 3 µs a 1k-vertex shape)
+    extent = np.stack([vertices[..., c].max(-1) - vertices[..., c].min(-1) for c in range(3)], axis=-1)
     scale = extent.max(-1, keepdims=True)
     with np.errstate(invalid="ignore"):  # an infinite extent: inf / inf; its span is inf
         unit = extent / np.where(scale > 0, scale, 1.0)  # in [0, 1]: its norm cannot overflow
@@ -227,9 +231,17 @@ def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_si
     """Refuse shapes ``(B, n, 3)`` sharing ``faces`` whose scale is out of range or that have collapsed faces
     (``ValueError`` naming ``name`` and the first shape), and warn (:class:`MeshWarning`) about near-degenerate
     ones. The faces are checked ``batch_size`` shapes at a time, one batch per core (the triangles of a whole
-    collection take gigabytes).
+    collection take gigabytes). :func:`check_spans` and :func:`report_quality` are its two halves.
     """
     batches = range(0, len(vertices), batch_size)
+    check_spans(name, vertices)
+    # elementwise numpy: no BLAS to hold
+    worst = thread_map(lambda s: _quality(vertices[s : s + batch_size], faces).min(-1), batches, hold_blas=False)
+    report_quality(name, np.concatenate([np.zeros(0), *worst]))
+
+
+def check_spans(name: str, vertices: np.ndarray) -> None:
+    """Refuse shapes ``(B, n, 3)`` whose bounding-box diagonal lies outside ``SPAN_RANGE`` (``ValueError``)."""
     spans = span(vertices)
     bad = _out_of_range(spans)
     if bad.any():
@@ -239,9 +251,12 @@ def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_si
             f"units (first: shape {i}, {spans[i]:.3g}), where float64 areas and the extrinsic operator "
             "under- or overflow; rescale the coordinates."
         )
-    # elementwise numpy: no BLAS to hold
-    worst = thread_map(lambda s: _quality(vertices[s : s + batch_size], faces).min(-1), batches, hold_blas=False)
-    quality = np.concatenate([np.zeros(0), *worst])
+
+
+def report_quality(name: str, quality: np.ndarray) -> None:
+    """Refuse (``ValueError``) shapes whose worst face quality ``quality`` ``(B,)`` is below ``REFUSE_QUALITY``,
+    and warn (:class:`MeshWarning`) about those below ``WARN_QUALITY``, naming ``name`` and the first shape.
+    """
     for what, limit in (("zero-area (collapsed)", REFUSE_QUALITY), ("near-degenerate", WARN_QUALITY)):
         low = quality < limit
         if low.any():

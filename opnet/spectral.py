@@ -146,8 +146,17 @@ def _cotan_weights(edges: list, double_area: np.ndarray, faces: np.ndarray) -> n
     ``e2 = p[c+2] − p[c] = −g[c+1]`` (``g`` the edges opposite the corners); each edge gets half the cots of the
     corners opposite it.
     """
-    cot = [-np.einsum("i...,i...->...", edges[(c + 2) % 3], edges[(c + 1) % 3]) / double_area for c in range(3)]
-    cot = np.stack(cot, axis=-1)  # (..., m, 3): corner order, as the corner-to-edge matrix's rows
+    return _weights_of_cots(_corner_cots(edges, double_area), faces)
+
+
+def _corner_cots(edges: list, double_area: np.ndarray) -> list:
+    """The cots of the three corners, ``(..., m)`` each (see :func:`_cotan_weights`)."""
+    return [-np.einsum("i...,i...->...", edges[(c + 2) % 3], edges[(c + 1) % 3]) / double_area for c in range(3)]
+
+
+def _weights_of_cots(cots: list, faces: np.ndarray) -> np.ndarray:
+    """Cotan weights ``(..., e)`` from the corners' cots: half of each to the edge opposite it."""
+    cot = np.stack(cots, axis=-1)  # (..., m, 3): corner order, as the corner-to-edge matrix's rows
     return 0.5 * _scatter(cot.reshape(*cot.shape[:-2], -1), _corner_to_edge(faces))
 
 
@@ -211,6 +220,22 @@ def areas_and_cotan_weights(vertices: np.ndarray, faces: np.ndarray) -> tuple[np
     edges = face_edges(vertices, faces)
     double_area = double_areas(edges)
     return _lumped_areas(double_area, faces, vertices.shape[-2]), _cotan_weights(edges, double_area, faces)
+
+
+def areas_weights_and_worst_quality(vertices: np.ndarray, faces: np.ndarray, weights: bool = True) -> tuple:
+    """:func:`areas_and_cotan_weights` of checked float64 vertices ``(B, n, 3)`` and valid ``faces``, and each shape's
+    worst :func:`~opnet.mesh.face_quality` ``(B,)`` from the same pass: a triangle's cots sum to ``Σ edge² / (4 area)``,
+    so its quality ``4√3 · area / Σ edge²`` is ``√3 / Σ cot`` (0 for a collapsed one). For the fast path, which checks
+    the shapes on the way (:func:`opnet.mesh.check_spans` first: at any other scale the products under- or overflow).
+    Without ``weights`` the weights are ``None`` (their scatter onto the edges skipped).
+    """
+    edges = face_edges(vertices, faces)
+    with np.errstate(divide="ignore", invalid="ignore"):  # collapsed faces: refused by the caller from the quality
+        double_area = double_areas(edges)
+        cots = _corner_cots(edges, double_area)
+        worst = np.nan_to_num(np.sqrt(3.0) / (cots[0] + cots[1] + cots[2]), nan=0.0, posinf=0.0, neginf=0.0).min(-1)
+        areas = _lumped_areas(double_area, faces, vertices.shape[-2])
+        return areas, _weights_of_cots(cots, faces) if weights else None, worst
 
 
 def _face_incidence(faces: np.ndarray, n: int) -> sp.csr_matrix:

@@ -44,6 +44,41 @@ def test_near_degenerate_faces_warn_and_collapsed_ones_are_refused_with_their_in
         opnet.shape_differences(base_basis, np.stack([base.vertices, _sliver(base, 1e-10)]))
 
 
+def test_the_fast_path_checks_the_shapes_in_its_own_pass_as_check_shapes_does(base, base_basis):
+    """shape_differences finds each shape's worst face quality in the operators' pass over the faces (√3 / Σ cot):
+    the same qualities as opnet.face_quality, the same areas and weights, and the same errors and warnings as
+    opnet.mesh.check_shapes, naming the first bad shape of any batch and counting them all, for any channel."""
+    from opnet import spectral
+    from opnet.mesh import check_shapes, face_quality
+
+    rng = np.random.default_rng(0)
+    shapes = np.stack([base.vertices + 0.003 * rng.standard_normal(base.vertices.shape) for _ in range(4)])
+    shapes = np.concatenate([shapes, [_sliver(base, 1e-3), _sliver(base, 1e-6)]])
+    with np.errstate(all="raise"):
+        areas, weights, worst = spectral.areas_weights_and_worst_quality(shapes, base.faces)
+    # to rounding, which grows like 1/quality (the q = 2e-6 sliver: 3e-10 relative); the thresholds are 1e-4 and 1e-8
+    np.testing.assert_allclose(worst, face_quality(shapes, base.faces).min(-1), rtol=1e-8, atol=0)
+    expected_areas, expected_weights = spectral.areas_and_cotan_weights(shapes, base.faces)
+    assert np.array_equal(areas, expected_areas) and np.array_equal(weights, expected_weights)
+
+    good = np.repeat(base.vertices[None], 7, axis=0)
+    bad = good.copy()
+    bad[[4, 6]] = _sliver(base, 1e-10)  # the third batch of two holds the first collapsed shape
+    with pytest.raises(ValueError) as expected:
+        check_shapes("vertices", bad, base.faces)
+    assert "2 shapes have zero-area (collapsed) faces" in str(expected.value) and "first: shape 4" in str(
+        expected.value
+    )
+    for kinds in (opnet.KINDS, ["extrinsic"], [_Mine()]):
+        with pytest.raises(ValueError) as got:
+            opnet.shape_differences(base_basis, bad, kinds, batch_size=2, progress=False)
+        assert str(got.value) == str(expected.value), kinds
+    thin = good.copy()
+    thin[5] = _sliver(base, 1e-5)
+    with pytest.warns(opnet.MeshWarning, match=r"1 shapes have near-degenerate faces.*first: shape 5"):
+        opnet.shape_differences(base_basis, thin, batch_size=2, progress=False)
+
+
 def test_the_warning_threshold_is_where_one_face_outweighs_the_shape(base, base_basis):
     """The measurement behind the thresholds: thinning one face to quality q moves the conformal operator by
     ~0.015 / q (relative), so a mildly thin face is harmless and a face below 1e-4 dominates the whole shape."""
@@ -233,6 +268,15 @@ def test_the_loss_takes_numpy_targets_and_names_bad_arguments():
 
 
 # -- user-defined inner products ------------------------------------------------------------------------------
+
+
+class _Mine(opnet.InnerProduct):
+    """A channel of one's own (the area inner product written out): no shared pass over the faces."""
+
+    name = "mine"
+
+    def project(self, vertices, faces, evecs):
+        return evecs.T @ (opnet.vertex_areas(vertices, faces)[..., None] * evecs)
 
 
 class _WrongShape(opnet.InnerProduct):
