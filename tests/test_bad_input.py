@@ -79,6 +79,28 @@ def test_the_fast_path_checks_the_shapes_in_its_own_pass_as_check_shapes_does(ba
         opnet.shape_differences(base_basis, thin, batch_size=2, progress=False)
 
 
+def test_a_quality_that_only_the_fast_pass_rounds_below_the_limit_is_decided_by_the_full_check(
+    base, base_basis, monkeypatch
+):
+    """Where the pass's √3 / Σ cot puts a shape below the refusal limit and check_shapes' formula does not (rounding
+    at the limit), the full check decides: the operators are computed and nothing is raised or warned."""
+    import opnet.inner_products as ip_module
+
+    shapes = np.repeat(base.vertices[None], 3, axis=0)
+    expected = opnet.shape_differences(base_basis, shapes, batch_size=2, progress=False)
+    real = ip_module.areas_weights_and_worst_quality
+
+    def rounded_down(vertices, faces, weights=True):
+        areas, w, worst = real(vertices, faces, weights)
+        return areas, w, np.zeros_like(worst)
+
+    monkeypatch.setattr(ip_module, "areas_weights_and_worst_quality", rounded_down)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = opnet.shape_differences(base_basis, shapes, batch_size=2, progress=False)
+    assert np.array_equal(got, expected)
+
+
 def test_the_warning_threshold_is_where_one_face_outweighs_the_shape(base, base_basis):
     """The measurement behind the thresholds: thinning one face to quality q moves the conformal operator by
     ~0.015 / q (relative), so a mildly thin face is harmless and a face below 1e-4 dominates the whole shape."""
