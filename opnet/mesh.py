@@ -227,17 +227,20 @@ def _out_of_range(spans: np.ndarray) -> np.ndarray:
     return ((spans > 0) & (spans < SPAN_RANGE[0])) | (spans > SPAN_RANGE[1])
 
 
-def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_size: int = 64) -> None:
+def check_shapes(name: str, vertices: np.ndarray, faces: np.ndarray, *, batch_size: int = 64) -> np.ndarray:
     """Refuse shapes ``(B, n, 3)`` sharing ``faces`` whose scale is out of range or that have collapsed faces
     (``ValueError`` naming ``name`` and the first shape), and warn (:class:`MeshWarning`) about near-degenerate
     ones. The faces are checked ``batch_size`` shapes at a time, one batch per core (the triangles of a whole
-    collection take gigabytes). :func:`check_spans` and :func:`report_quality` are its two halves.
+    collection take gigabytes). :func:`check_spans` and :func:`report_quality` are its two halves. Returns each
+    shape's worst face quality ``(B,)``.
     """
     batches = range(0, len(vertices), batch_size)
     check_spans(name, vertices)
     # elementwise numpy: no BLAS to hold
     worst = thread_map(lambda s: _quality(vertices[s : s + batch_size], faces).min(-1), batches, hold_blas=False)
-    report_quality(name, np.concatenate([np.zeros(0), *worst]))
+    quality = np.concatenate([np.zeros(0), *worst])
+    report_quality(name, quality)
+    return quality
 
 
 def check_spans(name: str, vertices: np.ndarray) -> None:

@@ -32,7 +32,7 @@ from .inner_products import (
     get_inner_products,
     is_built_in,
 )
-from .mesh import Mesh, check_shapes, check_spans, face_quality, report_quality
+from .mesh import Mesh, check_shapes, check_spans, report_quality
 from .spectral import Eigenbasis
 
 __all__ = ["shape_difference", "shape_differences", "distortion_function", "pinv_psd", "KINDS", "CHANNEL_SETS"]
@@ -209,8 +209,8 @@ def fast_path(
         chunk = vertices[s : s + batch_size]
         grams = batch_grams(ips, chunk, faces, phi, None if worst is None else worst[s : s + len(chunk)])
         if grams is None:  # a collapsed face: the whole check names every such shape (and raises)
-            check_shapes(check, vertices, faces, batch_size=batch_size)
-            worst[s : s + len(chunk)] = face_quality(chunk, faces).min(-1)  # at the limit, the check's rounding passed
+            quality = check_shapes(check, vertices, faces, batch_size=batch_size)
+            worst[s : s + len(chunk)] = quality[s : s + len(chunk)]  # at the limit, where the check's rounding passed
             grams = batch_grams(ips, chunk, faces, phi)
         for c, (kp, gram) in enumerate(zip(k0_pinv, grams)):
             out[s : s + len(chunk), c] = left_multiply(kp, gram)
