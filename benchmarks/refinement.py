@@ -60,7 +60,7 @@ def parse_args(argv=None):
     ap.add_argument(
         "--reproduce-dir",
         help="the reproduce output whose Int+Ext network is refined "
-        "(default: opnet.data.default_root()/reproduce-<preset>)",
+        "(default: the notebooks' folder, opnet.reproduce.notebook_out(preset))",
     )
     ap.add_argument("--every", type=int, default=4, help="use every N-th val shape (default 4)")
     ap.add_argument("--quick", action="store_true", help="only the first two settings, at most 30 steps")
@@ -73,12 +73,12 @@ def measure(args) -> dict:
 
     from opnet.evaluate import predict
     from opnet.geometric import truncate_operators
-    from opnet.reproduce import run_path
+    from opnet.reproduce import notebook_out, run_path
 
     info = torch_machine_info()
     coll = opnet.data.load_collection("humans", args.preset)
     out = Path(args.reproduce_dir).expanduser() if args.reproduce_dir else None
-    out = out or opnet.data.default_root() / f"reproduce-{args.preset}"
+    out = out or notebook_out(args.preset)
     run = run_path(out, "table1", opnet.KINDS, 1)
     net = opnet.train.load_model(run, coll)
     idx = coll.indices("val")[:: args.every]

@@ -34,6 +34,8 @@ importable from here too).
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import platform
 import time
@@ -82,6 +84,7 @@ from .shape_difference import KINDS
 __all__ = [
     "reproduce",
     "run_path",
+    "notebook_out",
     "spec",
     "table1_specs",
     "comp_specs",
@@ -143,12 +146,12 @@ class Budget:
 #: The training settings (:class:`Budget`) of each preset.
 BUDGETS = {
     "quick": Budget(
-        epochs=80,
+        epochs=60,
         ablation_epochs=6,
         batch_size=16,
         refine_steps=30,
         refine_shapes=12,
-        pointnet_epochs=40,
+        pointnet_epochs=20,
         analogies=24,
         paths=4,
         apps_refine_shapes=6,
@@ -565,6 +568,21 @@ def run_path(out, table: str, channels, depth: int = 1, variant: str = "paper") 
     if out is None:
         raise TypeError("out must be the reproduction's folder (its runs/ hold the networks), not None.")
     return spec(table, BUDGETS["quick"], channels, depth, variant).run_dir(Path(out) / "runs")
+
+
+def notebook_out(preset: str, root=None) -> Path:
+    """The reproduction folder the notebooks share at ``preset`` (its ``runs/`` hold their networks):
+    ``<root>/reproduce-<preset>-<digest>``, ``root`` by default :func:`opnet.data.default_root`, the digest 8 hex
+    digits of SHA-256 over the fields of ``BUDGETS[preset]``. A release that changes a preset's budget trains its
+    networks in a new folder, beside those of the old budget (a run directory refuses to resume a run of other
+    settings: :class:`opnet.train.CheckpointError`).
+    """
+    from .data import default_root
+
+    if preset not in BUDGETS:
+        raise ValueError(f"unknown preset {preset!r}; use one of {list(BUDGETS)}.")
+    digest = hashlib.sha256(json.dumps(asdict(BUDGETS[preset]), sort_keys=True).encode()).hexdigest()[:8]
+    return Path(default_root() if root is None else root) / f"reproduce-{preset}-{digest}"
 
 
 def application_methods(coll, nets: dict, budget: Budget, *, refine: bool = True, device="cpu") -> list:

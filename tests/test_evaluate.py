@@ -91,6 +91,22 @@ def test_operatornet_method_decodes_its_channels(coll):
 
 
 @pytest.mark.slow
+def test_the_notebooks_share_a_folder_per_budget(tmp_path, monkeypatch):
+    import dataclasses
+
+    first = reproduce.notebook_out("quick", tmp_path)
+    assert first.parent == tmp_path and first.name.startswith("reproduce-quick-")
+    assert reproduce.notebook_out("quick", tmp_path) == first  # the same budget: the same folder, its runs loaded
+    assert reproduce.notebook_out("default", tmp_path) != first
+    # a release that changes the budget trains beside the old runs (which would refuse other settings)
+    monkeypatch.setitem(reproduce.BUDGETS, "quick", dataclasses.replace(reproduce.BUDGETS["quick"], epochs=80))
+    assert reproduce.notebook_out("quick", tmp_path).name not in (first.name, "reproduce-quick")
+    monkeypatch.setenv("OPNET_DATA_DIR", str(tmp_path / "data"))
+    assert reproduce.notebook_out("paper").parent == tmp_path / "data"
+    with pytest.raises(ValueError, match="unknown preset 'fast'"):
+        reproduce.notebook_out("fast")
+
+
 def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, tiny_collection):
     tiny = tiny_collection("humans")
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: tiny)
