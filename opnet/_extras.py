@@ -17,6 +17,7 @@ EXTRAS = {
     "pyvista": "viz",
     "matplotlib": "viz",
     "ipywidgets": "viz",
+    "pygltflib": "animals",
 }
 
 

@@ -7,7 +7,8 @@ Layers, each importing only from those before it (``tests/test_data_layers.py`` 
    :mod:`~opnet.data.subjects`, :mod:`~opnet.data.motion`, :mod:`~opnet.data.toy`;
 2. :mod:`~opnet.data.build` (a collection from vertices) and :mod:`~opnet.data.anny_adapter` (the only module of
    opnet that imports anny);
-3. :mod:`~opnet.data.humans`, :mod:`~opnet.data.heads`, :mod:`~opnet.data.hands` (shapes described in numpy);
+3. :mod:`~opnet.data.humans`, :mod:`~opnet.data.heads`, :mod:`~opnet.data.hands` (shapes described in numpy),
+   :mod:`~opnet.data.animals` (the rigged animals of an asset package, posed in numpy);
 4. :mod:`~opnet.data.generators` (the named collections and :func:`load_collection`), :mod:`~opnet.data.folder`
    (your own meshes);
 5. :mod:`~opnet.data.mapped` (operators through computed maps), :mod:`~opnet.data.torch_dataset`.
@@ -25,7 +26,7 @@ Layers, each importing only from those before it (``tests/test_data_layers.py`` 
     comp = opnet.data.mapped_collection(ds, "2k")   # the same shapes, operators through computed maps
 """
 
-from . import toy
+from . import animals, toy
 from .folder import load_folder
 from .generators import load_collection
 from .mapped import mapped_collection
@@ -33,6 +34,7 @@ from .splits import furthest_point_subset, hausdorff, make_splits
 from .storage import SPLITS, Collection, CollectionError, default_root, read_collection, save_collection
 
 __all__ = [
+    "animals",
     "toy",
     "SPLITS",
     "Collection",

