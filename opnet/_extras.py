@@ -18,6 +18,8 @@ EXTRAS = {
     "matplotlib": "viz",
     "ipywidgets": "viz",
     "pygltflib": "animals",
+    "pymeshlab": "animals",
+    "pymeshfix": "animals",
 }
 
 

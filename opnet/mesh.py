@@ -41,6 +41,7 @@ __all__ = [
     "furthest_vertices",
     "vertex_faces",
     "closest_points_on_faces",
+    "components",
 ]
 
 _LOADABLE = (".ply", ".obj", ".off", ".stl")
@@ -346,7 +347,10 @@ def _largest_component(v: np.ndarray, f: np.ndarray, labels: np.ndarray) -> tupl
     return v[kept], f, kept
 
 
-def _components(f: np.ndarray, n: int) -> tuple[int, np.ndarray]:
+def components(f: np.ndarray, n: int) -> tuple[int, np.ndarray]:
+    """The connected components of a triangle list ``f`` on ``n`` vertices: their number and each vertex's label
+    ``(n,)`` (scipy's ``connected_components`` of the edge graph).
+    """
     rows = f[:, [0, 1, 2]].ravel()
     cols = f[:, [1, 2, 0]].ravel()
     adj = sp.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
@@ -412,7 +416,7 @@ class Mesh:
             )
         f = as_faces(faces, len(v))
         kept = np.arange(len(v))
-        n_comp, labels = _components(f, len(v))
+        n_comp, labels = components(f, len(v))
         if n_comp > 1:
             if not keep_largest_component:
                 raise MeshError(_components_message(v, f, labels, n_comp))

@@ -88,6 +88,26 @@ def test_a_walk_moves_the_legs_and_keeps_most_edges(horse):
     assert moved[on_legs].max() > 0.2 > np.median(moved)  # the hooves travel, most of the body not as far
 
 
+@pytest.mark.parametrize("name", ["horse", "stag"])  # the stag's body needs MeshFix's repair first
+def test_the_template_is_one_closed_genus_0_surface_that_follows_the_rig(name):
+    from scipy.spatial import cKDTree
+
+    from opnet.data.animals.template import TEMPLATE_VERTICES, body_template
+    from opnet.mesh import closest_points_on_faces, components, edge_face_counts, face_quality
+
+    rig = animals.read_rig(name)
+    template = body_template(rig)
+    v, f = template.vertices, template.faces
+    edges, counts = edge_face_counts(f)
+    assert (counts == 2).all() and len(v) - len(edges) + len(f) == 2 and components(f, len(v))[0] == 1
+    assert abs(len(v) / TEMPLATE_VERTICES - 1) < 0.1 and face_quality(v, f).min() > 0.04
+    assert np.allclose(template.skin_weights.sum(1), 1) and template.joint_names == rig.joint_names
+    asset, mine = rig.frames("Walk", 3)[1], template.frames("Walk", 3)[1]  # mid-stride
+    face, bary = closest_points_on_faces(mine, asset, rig.faces, cKDTree(asset).query(mine, k=8)[1])
+    gap = np.linalg.norm(np.einsum("pc,pci->pi", bary, asset[rig.faces[face]]) - mine, axis=1)
+    assert np.median(gap) < 1e-3 and np.mean(gap) < 3e-3  # metres: the carried skin poses it with the asset
+
+
 def test_slerp_and_the_quaternion_matrices():
     z90 = np.array([0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4)])
     half = _sample(np.array([0.0, 1.0]), np.array([[0, 0, 0, 1.0], z90]), np.array([0.5]), "LINEAR", True)[0]

@@ -8,7 +8,9 @@ skeleton and animated by about a dozen clips.
 - :mod:`~opnet.data.animals.assets`: where the package's files are, and a species read into a :class:`Rig` (the
   only module of opnet that reads the asset package);
 - :mod:`~opnet.data.animals.rig`: the :class:`Rig` (mesh, skin, skeleton, clips) and its posing: forward kinematics
-  and linear blend skinning in numpy.
+  and linear blend skinning in numpy;
+- :mod:`~opnet.data.animals.template`: a rig on its body's closed, genus-0 template of about the paper's 1769
+  vertices (:func:`body_template`).
 
 ::
 
@@ -17,9 +19,21 @@ skeleton and animated by about a dozen clips.
     horse = animals.read_rig("horse")      # vertices (n, 3) m, the bind pose; faces; skin; clips
     horse.clip_names                       # ('Attack_Headbutt', ..., 'Walk')
     frames = horse.frames("Walk", 8)       # (8, n, 3): evenly spaced over the clip
+    template = animals.body_template(horse)  # the same rig on a closed genus-0 remeshing of its body
 """
 
 from .assets import INSTALL, asset_folder, asset_version, read_rig, species
 from .rig import Clip, Rig
+from .template import TEMPLATE_VERTICES, body_template
 
-__all__ = ["INSTALL", "asset_folder", "asset_version", "read_rig", "species", "Clip", "Rig"]
+__all__ = [
+    "INSTALL",
+    "asset_folder",
+    "asset_version",
+    "read_rig",
+    "species",
+    "Clip",
+    "Rig",
+    "TEMPLATE_VERTICES",
+    "body_template",
+]

@@ -6,7 +6,8 @@ opnet runs on (:data:`INSTALL` says how to install it there). A species is read 
 :class:`~opnet.data.animals.rig.Rig`:
 
 - the mesh in its bind pose, every skinned mesh of the file together, with the corners that the file splits (by
-  material or normal) merged where their positions are equal; in metres (the package's ``scale_to_meters``);
+  material or normal) merged where their positions are equal, and the faces that this collapses (two corners at
+  one position: the alpaca has four) dropped; in metres (the package's ``scale_to_meters``);
 - the skin, with the hooves' and paws' weights moved from the legs' IK control bones (``IKFrontLeg``, ``FF``,
   ``IKBackLeg``, ``FFB``, which hang off the armature's root and follow their own animation targets) to the lower
   leg of the same side: skinned that way they move with the leg, as if they were its children (their bind pose is
@@ -100,6 +101,7 @@ def _rig(name: str, gltf, scale: float) -> Rig:
     # corners split by material or normal: one vertex per position (their skins agree)
     unique, first, inverse = np.unique(positions, axis=0, return_index=True, return_inverse=True)
     faces = inverse.reshape(-1)[np.concatenate(faces)]
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])]
 
     joint_nodes = np.asarray(skin.joints)
     joint_names = tuple(gltf.nodes[j].name for j in joint_nodes)
