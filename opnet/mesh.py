@@ -347,12 +347,12 @@ def _largest_component(v: np.ndarray, f: np.ndarray, labels: np.ndarray) -> tupl
     return v[kept], f, kept
 
 
-def components(f: np.ndarray, n: int) -> tuple[int, np.ndarray]:
-    """The connected components of a triangle list ``f`` on ``n`` vertices: their number and each vertex's label
+def components(faces: np.ndarray, n: int) -> tuple[int, np.ndarray]:
+    """The connected components of a triangle list ``faces`` on ``n`` vertices: their number and each vertex's label
     ``(n,)`` (scipy's ``connected_components`` of the edge graph).
     """
-    rows = f[:, [0, 1, 2]].ravel()
-    cols = f[:, [1, 2, 0]].ravel()
+    rows = faces[:, [0, 1, 2]].ravel()
+    cols = faces[:, [1, 2, 0]].ravel()
     adj = sp.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
     return connected_components(adj, directed=False)
 

@@ -85,6 +85,7 @@ __all__ = [
     "reproduce",
     "run_path",
     "notebook_out",
+    "TRAINING_FIELDS",
     "spec",
     "table1_specs",
     "comp_specs",
@@ -143,6 +144,8 @@ class Budget:
     discretisation_shapes: int = 80  # test shapes the different-discretisation rows map (seconds each)
 
 
+#: The fields of a :class:`Budget` that the networks are trained with (the others set how much is evaluated).
+TRAINING_FIELDS = ("epochs", "ablation_epochs", "pointnet_epochs", "batch_size", "lr", "hidden")
 #: The training settings (:class:`Budget`) of each preset.
 BUDGETS = {
     "quick": Budget(
@@ -573,15 +576,17 @@ def run_path(out, table: str, channels, depth: int = 1, variant: str = "paper") 
 def notebook_out(preset: str, root=None) -> Path:
     """The reproduction folder the notebooks share at ``preset`` (its ``runs/`` hold their networks):
     ``<root>/reproduce-<preset>-<digest>``, ``root`` by default :func:`opnet.data.default_root`, the digest 8 hex
-    digits of SHA-256 over the fields of ``BUDGETS[preset]``. A release that changes a preset's budget trains its
-    networks in a new folder, beside those of the old budget (a run directory refuses to resume a run of other
-    settings: :class:`opnet.train.CheckpointError`).
+    digits of SHA-256 over the fields of ``BUDGETS[preset]`` that the networks are trained with
+    (:data:`TRAINING_FIELDS`). A release that changes a preset's training budget trains its networks in a new
+    folder, beside those of the old budget (a run directory refuses to resume a run of other settings:
+    :class:`opnet.train.CheckpointError`); the old folder can be deleted.
     """
     from .data import default_root
 
     if preset not in BUDGETS:
         raise ValueError(f"unknown preset {preset!r}; use one of {list(BUDGETS)}.")
-    digest = hashlib.sha256(json.dumps(asdict(BUDGETS[preset]), sort_keys=True).encode()).hexdigest()[:8]
+    fields = {name: getattr(BUDGETS[preset], name) for name in TRAINING_FIELDS}
+    digest = hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:8]
     return Path(default_root() if root is None else root) / f"reproduce-{preset}-{digest}"
 
 

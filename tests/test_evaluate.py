@@ -90,7 +90,6 @@ def test_operatornet_method_decodes_its_channels(coll):
     np.testing.assert_array_equal(m.reconstruct(idx), expected)
 
 
-@pytest.mark.slow
 def test_the_notebooks_share_a_folder_per_budget(tmp_path, monkeypatch):
     import dataclasses
 
@@ -98,8 +97,11 @@ def test_the_notebooks_share_a_folder_per_budget(tmp_path, monkeypatch):
     assert first.parent == tmp_path and first.name.startswith("reproduce-quick-")
     assert reproduce.notebook_out("quick", tmp_path) == first  # the same budget: the same folder, its runs loaded
     assert reproduce.notebook_out("default", tmp_path) != first
-    # a release that changes the budget trains beside the old runs (which would refuse other settings)
-    monkeypatch.setitem(reproduce.BUDGETS, "quick", dataclasses.replace(reproduce.BUDGETS["quick"], epochs=80))
+    base = reproduce.BUDGETS["quick"]
+    monkeypatch.setitem(reproduce.BUDGETS, "quick", dataclasses.replace(base, analogies=7))
+    assert reproduce.notebook_out("quick", tmp_path) == first  # how many questions are asked trains nothing
+    # a release that changes the training budget trains beside the old runs (which would refuse other settings)
+    monkeypatch.setitem(reproduce.BUDGETS, "quick", dataclasses.replace(base, epochs=80))
     assert reproduce.notebook_out("quick", tmp_path).name not in (first.name, "reproduce-quick")
     monkeypatch.setenv("OPNET_DATA_DIR", str(tmp_path / "data"))
     assert reproduce.notebook_out("paper").parent == tmp_path / "data"
@@ -107,6 +109,7 @@ def test_the_notebooks_share_a_folder_per_budget(tmp_path, monkeypatch):
         reproduce.notebook_out("fast")
 
 
+@pytest.mark.slow
 def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, tiny_collection):
     tiny = tiny_collection("humans")
     monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: tiny)

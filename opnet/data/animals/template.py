@@ -3,8 +3,9 @@
 
 The asset meshes are low-poly (about a thousand vertices), their triangles shaped by the modeller, and some come in
 pieces: horns (bull, cow) and antlers (stag) are separate open shells, the alpaca has two stray two-face pieces.
-The template keeps the largest piece, the body, which is closed in every asset (checked): the horns and antlers
-have no counterpart in the other species, and the operators need one closed surface. Remeshing (pymeshlab's
+The template keeps the largest piece, the body (the horns and antlers have no counterpart in the other species, and
+the operators need one closed surface), which is closed in every asset but the stag's (a few edges on three or four
+faces, two open ones), which MeshFix repairs. Remeshing (pymeshlab's
 isotropic explicit remeshing, the MeshLab filter) gives triangles of nearly one size and shape, which the cotan
 operators need; the skin weights of each template vertex are those of the closest point of the asset's body
 (barycentric in its triangle), the four largest kept and normalised.
@@ -19,7 +20,7 @@ from scipy.spatial import cKDTree
 
 from ..._extras import require
 from ...mesh import closest_points_on_faces, components, double_areas, edge_face_counts, face_edges
-from .rig import Rig
+from .rig import Rig, largest_weights
 
 __all__ = ["TEMPLATE_VERTICES", "body_template"]
 
@@ -27,10 +28,11 @@ __all__ = ["TEMPLATE_VERTICES", "body_template"]
 TEMPLATE_VERTICES = 1769
 
 
-def body_template(rig: Rig, vertices: int = TEMPLATE_VERTICES, iterations: int = 8) -> Rig:
-    """``rig`` on a template of its body: closed, one piece, genus 0, about ``vertices`` vertices of nearly
+def body_template(rig: Rig, n_vertices: int = TEMPLATE_VERTICES, iterations: int = 8) -> Rig:
+    """``rig`` on a template of its body: closed, one piece, genus 0, about ``n_vertices`` vertices of nearly
     equilateral triangles (pymeshlab's isotropic remeshing, ``iterations`` passes), the skin carried over by closest
-    point. Raises a ``ValueError`` when the body is not closed or the remeshing is not one closed genus-0 surface.
+    point. Raises a ``ValueError`` when the body is not closed even after MeshFix's repair, or when the remeshing is
+    not one closed genus-0 surface.
     """
     labels = components(rig.faces, len(rig.vertices))[1][rig.faces[:, 0]]
     areas = double_areas(face_edges(rig.vertices, rig.faces))
@@ -47,17 +49,19 @@ def body_template(rig: Rig, vertices: int = TEMPLATE_VERTICES, iterations: int =
     meshes.add_mesh(pymeshlab.Mesh(*surface))
     # an equilateral triangle of side l has area √3/4 l², and a closed genus-0 mesh twice as many faces as vertices;
     # the remeshing's edges come out about 7 % shorter than its target (measured on the twelve animals)
-    length = 1.07 * np.sqrt(areas[body].sum() / 2 / (np.sqrt(3) / 4 * 2 * vertices))
+    length = 1.07 * np.sqrt(areas[body].sum() / 2 / (np.sqrt(3) / 4 * 2 * n_vertices))
     meshes.meshing_isotropic_explicit_remeshing(targetlen=pymeshlab.PureValue(length), iterations=iterations)
     out = meshes.current_mesh()
     v, f = np.asarray(out.vertex_matrix(), dtype=np.float64), np.asarray(out.face_matrix(), dtype=np.int64)
     used = np.unique(f)
     v, f = v[used], np.searchsorted(used, f)
     euler = len(v) - len(edge_face_counts(f)[0]) + len(f)
-    if not _closed(f) or euler != 2 or components(f, len(v))[0] != 1:
+    pieces = components(f, len(v))[0]
+    if not _closed(f) or euler != 2 or pieces != 1:
         raise ValueError(
-            f"{rig.species}: the remeshed body is not one closed genus-0 surface (Euler characteristic {euler}); "
-            "try other iterations."
+            f"{rig.species}: the remeshed body is not one closed genus-0 surface (closed: {_closed(f)}, {pieces} "
+            f"piece(s), Euler characteristic {euler}); try body_template(rig, iterations={iterations + 4}) or "
+            f"another n_vertices."
         )
     joints, weights = _carried_skin(rig, faces, v)
     return dataclasses.replace(rig, vertices=v, faces=f, skin_joints=joints, skin_weights=weights)
@@ -72,12 +76,7 @@ def _carried_skin(rig: Rig, faces: np.ndarray, points: np.ndarray) -> tuple:
     """The skin at ``points`` ``(p, 3)`` on the rig's surface ``faces``: the four largest weights of the barycentric
     blend of the closest triangle's corners, normalised; ``(joints (p, 4), weights (p, 4))``.
     """
-    dense = np.zeros((len(rig.vertices), len(rig.joint_names)))
-    np.add.at(dense, (np.arange(len(rig.vertices))[:, None], rig.skin_joints), rig.skin_weights)
     on_body = np.unique(faces)
     near = on_body[cKDTree(rig.vertices[on_body]).query(points, k=min(8, len(on_body)))[1]]
     face, bary = closest_points_on_faces(points, rig.vertices, faces, near)
-    blended = np.einsum("pc,pcj->pj", bary, dense[faces[face]])
-    joints = np.argsort(-blended, axis=1)[:, :4]
-    weights = np.take_along_axis(blended, joints, axis=1)
-    return joints, weights / weights.sum(1, keepdims=True)
+    return largest_weights(np.einsum("pc,pcj->pj", bary, rig.dense_skin()[faces[face]]))
