@@ -124,6 +124,24 @@ def test_the_template_is_one_closed_genus_0_surface_that_follows_the_rig(name, h
     assert np.median(gap) < 1e-3 and np.mean(gap) < 3e-3  # metres: the carried skin poses it with the asset
 
 
+def test_a_template_registered_onto_another_species_lies_on_it_and_keeps_its_parts(horse):
+    from opnet.mesh import face_quality
+
+    wolf = animals.read_rig("wolf")
+    source, surface = animals.body_template(horse), animals.body_template(wolf)
+    x = animals.register(source, wolf, surface)
+    height = np.ptp(surface.vertices[:, 1])
+    assert animals.surface_distance(x, surface).mean() < 1e-4 * height
+    assert np.percentile(face_quality(x, source.faces), 1) > 0.2
+    # each part lands on the same part: the vertices led by a joint end nearest to that joint of the wolf
+    main = source.skin_joints[np.arange(len(x)), source.skin_weights.argmax(1)]
+    parts = ["Head", "Tail3", "FrontLowerLeg.L", "FrontLowerLeg.R", "BackLowerLeg.L", "BackLowerLeg.R"]
+    at = np.linalg.inv(wolf.inverse_bind)[[wolf.joint_names.index(p) for p in parts], :3, 3]
+    for i, part in enumerate(parts):
+        centre = x[main == source.joint_names.index(part)].mean(0)
+        assert np.argmin(np.linalg.norm(at - centre, axis=1)) == i, part
+
+
 def test_slerp_and_the_quaternion_matrices():
     z90 = np.array([0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4)])
     half = _sample(np.array([0.0, 1.0]), np.array([[0, 0, 0, 1.0], z90]), np.array([0.5]), "LINEAR", True)[0]

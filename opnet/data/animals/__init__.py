@@ -10,7 +10,9 @@ skeleton and animated by about a dozen clips.
 - :mod:`~opnet.data.animals.rig`: the :class:`Rig` (mesh, skin, skeleton, clips) and its posing: forward kinematics
   and linear blend skinning in numpy;
 - :mod:`~opnet.data.animals.template`: a rig on its body's closed, genus-0 template of about the paper's 1769
-  vertices (:func:`body_template`).
+  vertices (:func:`body_template`);
+- :mod:`~opnet.data.animals.registration`: one species' template laid onto another's body (:func:`register`), so
+  that the species share one template's vertices.
 
 ::
 
@@ -20,9 +22,12 @@ skeleton and animated by about a dozen clips.
     horse.clip_names                       # ('Attack_Headbutt', ..., 'Walk')
     frames = horse.frames("Walk", 8)       # (8, n, 3): evenly spaced over the clip
     template = animals.body_template(horse)  # the same rig on a closed genus-0 remeshing of its body
+    cow = animals.read_rig("cow")
+    on_cow = animals.register(template, cow, animals.body_template(cow))  # (n, 3): the horse's template on the cow
 """
 
 from .assets import INSTALL, asset_folder, asset_version, read_rig, species
+from .registration import STIFFNESS, register, surface_distance
 from .rig import Clip, Rig
 from .template import TEMPLATE_VERTICES, body_template
 
@@ -36,4 +41,7 @@ __all__ = [
     "Rig",
     "TEMPLATE_VERTICES",
     "body_template",
+    "STIFFNESS",
+    "register",
+    "surface_distance",
 ]
