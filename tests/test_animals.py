@@ -1,6 +1,7 @@
 """The animals' rigs (opnet.data.animals): the asset package read into meshes, skins, skeletons and clips, and
 posed by forward kinematics and linear blend skinning, checked against what must hold whatever the asset."""
 
+import dataclasses
 import importlib.util
 
 import numpy as np
@@ -140,6 +141,12 @@ def test_a_template_registered_onto_another_species_lies_on_it_and_keeps_its_par
     for i, part in enumerate(parts):
         centre = x[main == source.joint_names.index(part)].mean(0)
         assert np.argmin(np.linalg.norm(at - centre, axis=1)) == i, part
+    # the wolf on the horse's template, posed by the wolf's own gallop, follows the wolf's mesh
+    on_template = animals.registered_rig(source, wolf, surface)
+    assert on_template.faces is source.faces and on_template.clip_names == wolf.clip_names
+    mine, theirs = on_template.frames("Gallop", 3)[1], wolf.frames("Gallop", 3)[1]
+    gap = animals.surface_distance(mine, dataclasses.replace(wolf, vertices=theirs))
+    assert np.median(gap) < 2e-3 and gap.mean() < 5e-3  # metres
 
 
 def test_slerp_and_the_quaternion_matrices():

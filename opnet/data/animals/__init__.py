@@ -24,12 +24,13 @@ skeleton and animated by about a dozen clips.
     template = animals.body_template(horse)  # the same rig on a closed genus-0 remeshing of its body
     cow = animals.read_rig("cow")
     on_cow = animals.register(template, cow, animals.body_template(cow))  # (n, 3): the horse's template on the cow
+    walking = animals.registered_rig(template, cow).frames("Walk", 8)  # the cow's walk on the horse's template
 """
 
 from .assets import INSTALL, asset_folder, asset_version, read_rig, species
-from .registration import STIFFNESS, register, surface_distance
+from .registration import STIFFNESS, register, registered_rig, surface_distance
 from .rig import Clip, Rig
-from .template import TEMPLATE_VERTICES, body_template
+from .template import TEMPLATE_VERTICES, body_template, carried_skin
 
 __all__ = [
     "INSTALL",
@@ -41,7 +42,9 @@ __all__ = [
     "Rig",
     "TEMPLATE_VERTICES",
     "body_template",
+    "carried_skin",
     "STIFFNESS",
     "register",
+    "registered_rig",
     "surface_distance",
 ]

@@ -20,6 +20,8 @@ collection built on the registrations must check.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
@@ -28,8 +30,9 @@ from scipy.spatial import cKDTree
 from ...mesh import closest_points_on_faces, unique_edges
 from ...spectral import vertex_normals
 from .rig import Rig
+from .template import carried_skin
 
-__all__ = ["STIFFNESS", "register", "surface_distance"]
+__all__ = ["STIFFNESS", "register", "registered_rig", "surface_distance"]
 
 #: The non-rigid ICP's Laplacian stiffness, one value per stage (four closest-point updates each).
 STIFFNESS = (10.0, 3.0, 1.0, 0.3, 0.1)
@@ -58,6 +61,16 @@ def register(source: Rig, target: Rig, target_surface: Rig | None = None, relax:
         step -= np.sum(step * normal, axis=1, keepdims=True) * normal  # along the surface only
         x = _closest(x + step, surface, tree)
     return x
+
+
+def registered_rig(source: Rig, target: Rig, target_surface: Rig | None = None, relax: int = 3) -> Rig:
+    """``target`` on ``source``'s template: the vertices of :func:`register`, ``source``'s faces, and ``target``'s
+    skin carried over by closest point (:func:`~opnet.data.animals.template.carried_skin`), so that ``target``'s own
+    clips pose it. Rigs registered from one source share its faces and vertex order: shapes in correspondence.
+    """
+    x = register(source, target, target_surface, relax)
+    joints, weights = carried_skin(target, x)
+    return dataclasses.replace(target, vertices=x, faces=source.faces, skin_joints=joints, skin_weights=weights)
 
 
 def surface_distance(points: np.ndarray, surface: Rig) -> np.ndarray:

@@ -22,7 +22,7 @@ from ..._extras import require
 from ...mesh import closest_points_on_faces, components, double_areas, edge_face_counts, face_edges
 from .rig import Rig, largest_weights
 
-__all__ = ["TEMPLATE_VERTICES", "body_template"]
+__all__ = ["TEMPLATE_VERTICES", "body_template", "carried_skin"]
 
 #: The paper's animal template (SMAL simplified): the vertex count the remeshing aims at.
 TEMPLATE_VERTICES = 1769
@@ -63,7 +63,7 @@ def body_template(rig: Rig, n_vertices: int = TEMPLATE_VERTICES, iterations: int
             f"piece(s), Euler characteristic {euler}); try body_template(rig, iterations={iterations + 4}) or "
             f"another n_vertices."
         )
-    joints, weights = _carried_skin(rig, faces, v)
+    joints, weights = carried_skin(rig, v, faces)
     return dataclasses.replace(rig, vertices=v, faces=f, skin_joints=joints, skin_weights=weights)
 
 
@@ -72,10 +72,12 @@ def _closed(faces: np.ndarray) -> bool:
     return bool((edge_face_counts(faces)[1] == 2).all())
 
 
-def _carried_skin(rig: Rig, faces: np.ndarray, points: np.ndarray) -> tuple:
-    """The skin at ``points`` ``(p, 3)`` on the rig's surface ``faces``: the four largest weights of the barycentric
-    blend of the closest triangle's corners, normalised; ``(joints (p, 4), weights (p, 4))``.
+def carried_skin(rig: Rig, points: np.ndarray, faces: np.ndarray | None = None) -> tuple:
+    """The skin of ``rig`` at ``points`` ``(p, 3)`` on its surface (``faces``, default all of the rig's): the four
+    largest weights of the barycentric blend of the closest triangle's corners, normalised;
+    ``(joints (p, 4), weights (p, 4))``.
     """
+    faces = rig.faces if faces is None else faces
     on_body = np.unique(faces)
     near = on_body[cKDTree(rig.vertices[on_body]).query(points, k=min(8, len(on_body)))[1]]
     face, bary = closest_points_on_faces(points, rig.vertices, faces, near)
