@@ -11,8 +11,8 @@ skeleton and animated by about a dozen clips.
   and linear blend skinning in numpy;
 - :mod:`~opnet.data.animals.template`: a rig on its body's closed, genus-0 template of about the paper's 1769
   vertices (:func:`body_template`);
-- :mod:`~opnet.data.animals.registration`: one species' template laid onto another's body (:func:`register`), so
-  that the species share one template's vertices.
+- :mod:`~opnet.data.animals.registration`: one species' template laid onto another's body (:func:`register`), and
+  that species on the shared template, posed by its own clips (:func:`registered_rig`).
 
 ::
 
@@ -28,8 +28,8 @@ skeleton and animated by about a dozen clips.
 """
 
 from .assets import INSTALL, asset_folder, asset_version, read_rig, species
-from .registration import STIFFNESS, register, registered_rig, surface_distance
-from .rig import Clip, Rig
+from .registration import STIFFNESS, body_part, register, registered_rig, surface_distance
+from .rig import Clip, Rig, largest_weights
 from .template import TEMPLATE_VERTICES, body_template, carried_skin
 
 __all__ = [
@@ -40,10 +40,12 @@ __all__ = [
     "species",
     "Clip",
     "Rig",
+    "largest_weights",
     "TEMPLATE_VERTICES",
     "body_template",
     "carried_skin",
     "STIFFNESS",
+    "body_part",
     "register",
     "registered_rig",
     "surface_distance",
