@@ -23,14 +23,18 @@ EXTRAS = {
 }
 
 
+#: The extras that ``opnet[all]`` leaves out (the animals': pymeshlab and pymeshfix are GPL-3, opnet MIT).
+NOT_IN_ALL = {"animals"}
+
+
 def missing_extra(exc: ModuleNotFoundError, needed_by: str) -> ImportError | None:
     """An ImportError naming the extra to install, when ``exc`` is about an optional package (else None)."""
     top = (exc.name or "").partition(".")[0]
     if top not in EXTRAS:
         return None
-    return ImportError(
-        f"{needed_by} needs {top}, which is not installed: pip install 'opnet[{EXTRAS[top]}]' (or 'opnet[all]')."
-    )
+    extra = EXTRAS[top]
+    also = "" if extra in NOT_IN_ALL else " (or 'opnet[all]')"
+    return ImportError(f"{needed_by} needs {top}, which is not installed: pip install 'opnet[{extra}]'{also}.")
 
 
 def require(module: str, needed_by: str):
