@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
 
 __all__ = ["Clip", "Rig", "largest_weights"]
 
@@ -129,44 +130,22 @@ def largest_weights(dense: np.ndarray) -> tuple:
 
 
 def _sample(keys, values, t, interpolation: str, rotation: bool) -> np.ndarray:
-    """A channel's values at times ``t`` ``(F,)``: the keys' ``values`` ``(K, c)`` interpolated (rotations by slerp),
-    held at the first and the last key outside them (glTF's rule).
+    """A channel's values at times ``t`` ``(F,)``: the keys' ``values`` ``(K, c)`` interpolated (rotations along the
+    shorter arc: scipy's ``Slerp``), held at the first and the last key outside them (glTF's rule).
     """
     t = np.clip(t, keys[0], keys[-1])
-    i = np.clip(np.searchsorted(keys, t, side="right") - 1, 0, len(keys) - 1)
     if interpolation == "STEP" or len(keys) == 1:
-        return values[i]
-    j = np.minimum(i + 1, len(keys) - 1)
-    span = keys[j] - keys[i]
-    u = np.divide(t - keys[i], span, out=np.zeros_like(t), where=span > 0)[:, None]
-    a, b = values[i], values[j]
-    if not rotation:
-        return (1 - u) * a + u * b
-    dot = np.sum(a * b, axis=-1, keepdims=True)
-    b = np.where(dot < 0, -b, b)  # the shorter arc
-    dot = np.abs(dot)
-    theta = np.arccos(np.clip(dot, -1.0, 1.0))
-    small = theta < 1e-6
-    sin = np.where(small, 1.0, np.sin(theta))
-    wa = np.where(small, 1 - u, np.sin((1 - u) * theta) / sin)
-    wb = np.where(small, u, np.sin(u * theta) / sin)
-    q = wa * a + wb * b
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+        return values[np.searchsorted(keys, t, side="right") - 1]
+    if rotation:
+        return Slerp(keys, Rotation.from_quat(values))(t).as_quat()
+    return np.stack([np.interp(t, keys, column) for column in values.T], axis=-1)
 
 
 def _compose(translation, rotation, scale) -> np.ndarray:
-    """``T · R · S`` ``(..., 4, 4)`` from translations ``(..., 3)``, unit quaternions ``(..., 4)`` ``(x, y, z, w)``
-    and scales ``(..., 3)``.
+    """``T · R · S`` ``(..., 4, 4)`` from translations ``(..., 3)``, quaternions ``(..., 4)`` ``(x, y, z, w)`` (glTF's
+    order, scipy's too) and scales ``(..., 3)``.
     """
-    x, y, z, w = np.moveaxis(rotation / np.linalg.norm(rotation, axis=-1, keepdims=True), -1, 0)
-    r = np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-        ],
-        -2,
-    )
+    r = Rotation.from_quat(rotation.reshape(-1, 4)).as_matrix().reshape(*rotation.shape[:-1], 3, 3)
     out = np.zeros((*translation.shape[:-1], 4, 4))
     out[..., :3, :3] = r * scale[..., None, :]
     out[..., :3, 3] = translation
