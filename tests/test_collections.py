@@ -337,3 +337,14 @@ def test_a_format_2_collection_is_read_with_its_subjects_derived(coll, tmp_path)
     stem.with_name("old.json").write_text(json.dumps(dict(old, format_version=1)))
     with pytest.raises(CollectionError, match="format 1.*reads 2 and 3.*rebuild=True"):
         opnet.data.read_collection(stem)
+
+
+def test_make_splits_holds_out_the_subjects_it_is_told():
+    rng = np.random.default_rng(0)
+    subjects = np.repeat(np.arange(6), 8)
+    groups = np.tile(np.repeat(["a", "b", "c", "d"], 2), 6)
+    split = opnet.data.make_splits(subjects, groups, rng, n_test_subcollections=2, n_test_subjects=1, unseen=[4])
+    held = set(subjects[split == "test_subjects"])
+    assert 4 in held and len(held) == 2
+    with pytest.raises(ValueError, match=r"unseen subjects \[7\]"):
+        opnet.data.make_splits(subjects, groups, rng, unseen=[7])

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import hands, heads, humans
+from . import animals, hands, heads, humans
 from .build import assemble
 from .splits import make_splits
 from .storage import BYTES_PER_SHAPE, Collection, check_root, default_root, read_collection, save_or_warn
@@ -115,6 +115,8 @@ def _evaluator(name: str, resolution: str):
     """``evaluate(subjects (N, 6), controls (N, ...)) → vertices (N, n, 3)`` of a named collection."""
     if name == "humans":
         return lambda subj, poses: humans.human_vertices(subj, poses, resolution)
+    if name == "animals":  # "subjects": species weights (N, S); "controls": (clip, phase, turns)
+        return lambda weights, poses: animals.registered_species().shapes(weights, poses)
     return {"heads": heads.head_vertices, "hands": hands.hand_vertices}[name]
 
 
@@ -123,7 +125,11 @@ MOTIONS = {"humans": humans.ACTIONS, "heads": tuple(heads.HEAD_EXPRESSIONS), "ha
 
 
 def shape_count(name: str, preset: str) -> int:
-    """How many shapes the collection ``name`` holds at ``preset`` (each subject: every motion, plus random poses)."""
+    """How many shapes the collection ``name`` holds at ``preset`` (each subject: every motion, plus random poses;
+    the animals: before their quality pass).
+    """
+    if name == "animals":
+        return animals.shape_count(preset)
     p = PRESETS[preset]
     return p.subjects * (len(MOTIONS[name]) * p.frames + p.random)
 
@@ -175,11 +181,16 @@ def _hands(preset, resolution, seed, meta, progress=None):
     )
 
 
+def _animals(preset, resolution, seed, meta, progress=None, root=None):
+    return animals.animal_collection(preset, seed, meta, root, progress)
+
+
 #: name -> (generator, resolutions it offers; the first is the default)
 GENERATORS = {
     "humans": (_humans, humans.RESOLUTIONS),
     "heads": (_heads, ("native",)),
     "hands": (_hands, ("native",)),
+    "animals": (_animals, ("native",)),
 }
 
 
@@ -188,7 +199,7 @@ def generated_name(collection) -> str:
     if name not in GENERATORS or not {"phenotypes", "controls"} <= set(collection.params):
         raise ValueError(
             f"this collection ({name!r}) was not made by a generator of {sorted(GENERATORS)}, so its "
-            "shapes cannot be generated anew; use opnet.data.load_collection('humans' | 'heads' | 'hands')."
+            "shapes cannot be generated anew; use opnet.data.load_collection('humans' | 'heads' | 'hands' | 'animals')."
         )
     return name
 
@@ -258,9 +269,11 @@ def interpolate_controls(collection, c0, c1, t) -> np.ndarray:
 
 def stem_name(meta: dict) -> str:
     """The file name (without extensions) of a generated collection: ``<name>-<preset>-<resolution>-seed<seed>-v<N>``.
-    The generator version is part of it: after an upgrade that changes the data, the collection is rebuilt.
+    The generator version is part of it: after an upgrade that changes the data, the collection is rebuilt; so is
+    the animals' builder digest (``-<8 hex>``: their code and the asset package's version).
     """
-    return f"{meta['name']}-{meta['preset']}-{meta['resolution']}-seed{meta['seed']}-v{meta['generator_version']}"
+    stem = f"{meta['name']}-{meta['preset']}-{meta['resolution']}-seed{meta['seed']}-v{meta['generator_version']}"
+    return stem + (f"-{meta['builder'][:8]}" if "builder" in meta else "")
 
 
 def load_collection(
@@ -274,7 +287,8 @@ def load_collection(
     progress: bool | None = None,
     kinds=None,
 ) -> Collection:
-    """The collection ``name`` (``"humans"``, ``"heads"`` or ``"hands"``) at ``preset``, built if missing.
+    """The collection ``name`` (``"humans"``, ``"heads"``, ``"hands"`` or ``"animals"``) at ``preset``, built if
+    missing.
 
     ``preset`` is ``"quick"`` (a few hundred shapes, for tests), ``"default"`` (several thousand, minutes on a
     laptop CPU) or ``"paper"`` (≈17 000 training shapes like the paper's). ``resolution`` (humans only) picks
@@ -302,11 +316,15 @@ def load_collection(
         raise ValueError(f"seed must be an integer, got {seed!r}.") from None
     root = Path(root) if root is not None else default_root()
     meta = dict(name=name, preset=preset, resolution=resolution, seed=seed, generator_version=GENERATOR_VERSION)
+    extra = {}
+    if name == "animals":  # keyed by their code and the asset package's version; the registrations kept in root
+        meta["builder"] = animals.builder_digest()
+        extra["root"] = root
     stem = root / stem_name(meta)
     if not rebuild and stem.with_name(stem.name + ".json").is_file():
         coll = read_collection(stem, expected_meta=meta)
     else:
         check_root(root, shape_count(name, preset) * BYTES_PER_SHAPE)
-        coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress)
+        coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress, **extra)
         save_or_warn(coll, stem)
     return coll if kinds is None else coll.with_kinds(kinds, progress=progress)

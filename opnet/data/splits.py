@@ -19,6 +19,7 @@ def make_splits(
     n_test_subjects: int = 1,
     n_val_subcollections: int = 3,
     held_out_groups=None,
+    unseen=(),
 ) -> np.ndarray:
     """Split labels ``(N,)``: ``"train"``, ``"val"``, ``"test"`` and ``"test_subjects"``.
 
@@ -26,14 +27,24 @@ def make_splits(
     ``test_subjects`` holds every shape of ``n_test_subjects`` subjects; ``test`` holds
     ``n_test_subcollections`` whole sub-collections of the remaining subjects (as the paper
     holds out 10 DFAUST sequences); ``val`` holds ``n_val_subcollections`` more, for model
-    selection. Groups listed in ``held_out_groups`` (e.g. random poses) are never held out.
+    selection. Groups listed in ``held_out_groups`` (e.g. random poses) are never held out. Subjects listed in
+    ``unseen`` are held out as well, before the ``n_test_subjects`` drawn among the others (an animal species that
+    training never sees).
     """
     subjects, groups = np.asarray(subjects), np.asarray(groups)
     uniq = np.unique(subjects)
-    if n_test_subjects >= len(uniq):
-        raise ValueError(f"{len(uniq)} subjects cannot leave {n_test_subjects} unseen subjects and still train.")
+    unseen = np.asarray(unseen, dtype=subjects.dtype)
+    if not np.isin(unseen, uniq).all():
+        raise ValueError(
+            f"unseen subjects {sorted(set(unseen.tolist()) - set(uniq.tolist()))} are not among the subjects."
+        )
+    others = np.setdiff1d(uniq, unseen)
+    if n_test_subjects >= len(others):
+        raise ValueError(
+            f"{len(uniq)} subjects cannot leave {n_test_subjects + len(unseen)} unseen subjects and still train."
+        )
     split = np.full(len(subjects), "train", dtype=object)
-    unseen = rng.choice(uniq, n_test_subjects, replace=False)
+    unseen = np.r_[unseen, rng.choice(others, n_test_subjects, replace=False)]
     split[np.isin(subjects, unseen)] = "test_subjects"
     keep = set(held_out_groups or ())
     candidates = sorted({(s, g) for s, g in zip(subjects[split == "train"], groups[split == "train"]) if g not in keep})

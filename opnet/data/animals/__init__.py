@@ -12,7 +12,10 @@ skeleton and animated by about a dozen clips.
 - :mod:`~opnet.data.animals.template`: a rig on its body's closed, genus-0 template of about the paper's 1769
   vertices (:func:`body_template`);
 - :mod:`~opnet.data.animals.registration`: one species' template laid onto another's body (:func:`register`), and
-  that species on the shared template, posed by its own clips (:func:`registered_rig`).
+  that species on the shared template, posed by its own clips (:func:`registered_rig`);
+- :mod:`~opnet.data.animals.collection`: the collection that ``opnet.data.load_collection("animals")`` builds:
+  every species on the horse's template (:func:`registered_species`), blends between them, posed by their clips,
+  with a quality pass and splits that hold out a whole species (:data:`UNSEEN_SPECIES`).
 
 ::
 
@@ -25,10 +28,24 @@ skeleton and animated by about a dozen clips.
     cow = animals.read_rig("cow")
     on_cow = animals.register(template, cow, animals.body_template(cow))  # (n, 3): the horse's template on the cow
     walking = animals.registered_rig(template, cow).frames("Walk", 8)  # the cow's walk on the horse's template
+    ds = opnet.data.load_collection("animals", preset="quick")   # the collection: species, blends, clips
 """
 
 from .assets import INSTALL, asset_folder, asset_version, read_rig, species
-from .registration import STIFFNESS, body_part, register, registered_rig, surface_distance
+from .collection import (
+    MIN_QUALITY,
+    PRESETS,
+    TEMPLATE_SPECIES,
+    TURN,
+    UNSEEN_SPECIES,
+    AnimalPreset,
+    Bodies,
+    animal_collection,
+    builder_digest,
+    registered_species,
+    shape_count,
+)
+from .registration import PARTWISE_STAGES, RELAX, STIFFNESS, body_part, register, registered_rig, surface_distance
 from .rig import Clip, Rig, largest_weights
 from .template import TEMPLATE_VERTICES, body_template, carried_skin
 
@@ -44,9 +61,22 @@ __all__ = [
     "TEMPLATE_VERTICES",
     "body_template",
     "carried_skin",
+    "PARTWISE_STAGES",
+    "RELAX",
     "STIFFNESS",
     "body_part",
     "register",
     "registered_rig",
     "surface_distance",
+    "MIN_QUALITY",
+    "PRESETS",
+    "TEMPLATE_SPECIES",
+    "TURN",
+    "UNSEEN_SPECIES",
+    "AnimalPreset",
+    "Bodies",
+    "animal_collection",
+    "builder_digest",
+    "registered_species",
+    "shape_count",
 ]

