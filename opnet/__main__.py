@@ -78,7 +78,13 @@ def _parser() -> argparse.ArgumentParser:
         choices=["quick", "default", "paper"],
         help="quick: minutes on a laptop CPU; default: about an hour on 2 cores; paper: GPU",
     )
-    r.add_argument("--out", default=None, help="output folder (default reproduce-<preset>)")
+    r.add_argument(
+        "--collection",
+        default="humans",
+        choices=["humans", "animals"],
+        help="humans (the paper's Table 1 beside ours) or animals (quadrupeds on one template; no --maps rows)",
+    )
+    r.add_argument("--out", default=None, help="output folder (default reproduce-<preset>, reproduce-animals-<preset>)")
     r.add_argument("--device", default="auto", help="auto, cpu, cuda")
     r.add_argument("--no-ablation", action="store_true", help="only Table 1")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
@@ -96,7 +102,7 @@ def _parser() -> argparse.ArgumentParser:
         "--no-maps",
         action="store_true",
         help="skip the computed-map rows (Table 1's Comp networks, other triangulations; maps take "
-        "about 0.6 s per shape and core)",
+        "about 0.6 s per shape and core; humans only)",
     )
     r.add_argument("--data-root", default=None, help="where collections are cached")
     return p
@@ -261,7 +267,7 @@ def _run(args) -> int:
                 json.dump(rows, f, indent=1)
         return 0
 
-    from .reproduce import reproduce
+    from .reproduce import default_out, reproduce
 
     rows = reproduce(
         args.preset,
@@ -271,12 +277,13 @@ def _run(args) -> int:
         figures=not args.no_figures,
         refine=not args.no_refine,
         applications=not args.no_applications,
-        maps=not args.no_maps,
+        maps=False if args.no_maps else None,
+        collection=args.collection,
         data_root=args.data_root,
         progress=True,
     )
     print(_table([r for r in rows if r["table"] == "table1"]))
-    print(f"results: {args.out or f'reproduce-{args.preset}'}/results.md")
+    print(f"results: {args.out or default_out(args.preset, args.collection)}/results.md")
     return 0
 
 

@@ -115,6 +115,8 @@ __all__ = [
     "DISCRETISATIONS",
     "DISCRETISATION_NETWORKS",
     "POINTNET",
+    "COLLECTIONS",
+    "default_out",
     "REFINE",
     "REFINE_SETS",
     "FUNCCHAR",
@@ -198,8 +200,18 @@ DISCRETISATIONS = (("2k", "true"), ("2k", "computed"), ("5k", "true"), ("5k", "c
 #: The networks that decode them (Table 1's and :data:`COMP`'s names).
 DISCRETISATION_NETWORKS = ("OperatorNet (Int+Ext)", "OperatorNet (Ext)", *COMP)
 
+#: The generated collections :func:`reproduce` runs on.
+COLLECTIONS = ("humans", "animals")
+
 #: Table 1's name of the PointNet autoencoder (:class:`opnet.model.PointNetAutoencoder`), trained with ``applications``.
 POINTNET = "PointNet AE"
+
+
+def default_out(preset: str, collection: str = "humans") -> Path:
+    """The folder :func:`reproduce` writes into when not given one: ``reproduce-<preset>`` for the humans,
+    ``reproduce-<collection>-<preset>`` otherwise.
+    """
+    return Path(f"reproduce-{preset}" if collection == "humans" else f"reproduce-{collection}-{preset}")
 
 
 def _machine(device) -> str:
@@ -222,17 +234,19 @@ def reproduce(
     figures: bool = True,
     refine: bool = True,
     applications: bool = True,
-    maps: bool = True,
+    maps: bool | None = None,
+    collection: str = "humans",
     budget: Budget | None = None,
     data_root=None,
     progress: bool | None = None,
 ) -> list[dict]:
-    """Reproduce the paper's Table 1 and ablation on the generated humans at ``preset``; returns the rows.
+    """Reproduce the paper's Table 1 and ablation on the generated humans (or animals) at ``preset``; returns the rows.
 
     Parameters
     ----------
     preset : ``"quick"`` (minutes on a laptop CPU), ``"default"`` or ``"paper"``.
-    out : path, the output folder (default ``reproduce-<preset>``); reused to resume. Its ``results.json`` keeps
+    out : path, the output folder (default ``reproduce-<preset>``, ``reproduce-animals-<preset>`` for the animals);
+        reused to resume. Its ``results.json`` keeps
         the rows of earlier calls (same preset and budget) that this call does not measure again, so the parts
         of a reproduction can be run one call at a time.
     device : ``"auto"`` (CUDA when available), ``"cpu"``, ``"cuda"``.
@@ -242,9 +256,13 @@ def reproduce(
         its offset channels are computed for the collection first) and OperatorNet + refinement
         (:func:`opnet.reconstruct` with :data:`REFINE`, ``budget.refine_steps`` steps, on at most
         ``budget.refine_shapes`` shapes of each of :data:`REFINE_SETS`, evenly spaced: they take seconds per shape).
-    maps : also the computed-map rows: Table 1's "Comp" networks (:func:`comp_networks`; computing the maps of the
-        whole collection takes about 0.6 s per shape and core, done once and cached beside the collection) and the
-        different-discretisation rows (:func:`discretisation_rows`, ``budget.discretisation_shapes`` test shapes).
+    maps : also the computed-map rows (humans only; ``None``, the default: for the humans): Table 1's "Comp" networks
+        (:func:`comp_networks`; computing the maps of the whole collection takes about 0.6 s per shape and core, done
+        once and cached beside the collection) and the different-discretisation rows (:func:`discretisation_rows`,
+        ``budget.discretisation_shapes`` test shapes).
+    collection : one of :data:`COLLECTIONS`: ``"humans"`` (the paper's Table 1 and its numbers beside ours) or
+        ``"animals"`` (:mod:`opnet.data.animals`: the same networks and baselines; the analogies transfer pose and
+        animal type, the interpolations go between species; the paper gives no numbers to set beside them).
     applications : also train the PointNet autoencoder (Table 1's "PointNet AE" row) and run the analogy and
         interpolation benchmarks (:func:`applications_rows`; ``budget.analogies`` questions and ``budget.paths``
         paths per kind).
@@ -258,15 +276,23 @@ def reproduce(
 
     if preset not in BUDGETS:
         raise ValueError(f"unknown preset {preset!r}; use one of {list(BUDGETS)}.")
+    if collection not in COLLECTIONS:
+        raise ValueError(f"unknown collection {collection!r}; reproduce runs on one of {list(COLLECTIONS)}.")
+    if maps and collection != "humans":
+        raise ValueError(
+            f"the computed-map rows need the humans' 2k and 5k meshes; the {collection} have one mesh: pass "
+            "maps=False (the command line's --no-maps)."
+        )
+    maps = collection == "humans" if maps is None else maps
     budget = budget or BUDGETS[preset]
-    out = Path(out if out is not None else f"reproduce-{preset}")
+    out = Path(out if out is not None else default_out(preset, collection))
     if out.exists() and not out.is_dir():
         raise ValueError(f"out={out} is a file; give a folder.")
     (out / "runs").mkdir(parents=True, exist_ok=True)
     device = resolve_device(device)
     t_start = time.perf_counter()
     earlier = read_results(out) if (out / "results.json").is_file() else None  # kept where not measured again
-    coll = load_collection("humans", preset, root=data_root, progress=progress)
+    coll = load_collection(collection, preset, root=data_root, progress=progress)
     info = dict(preset=preset)
 
     from tqdm.auto import tqdm
@@ -332,6 +358,7 @@ def reproduce(
         )
     context = dict(
         preset=preset,
+        data=collection,
         budget=asdict(budget),
         machine=_machine(device),
         date=time.strftime("%Y-%m-%d"),

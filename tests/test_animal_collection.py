@@ -97,3 +97,52 @@ def test_the_collection_is_cached_by_the_builder_code_and_the_asset_version(quic
     # another asset version: another digest, so another file (the registrations too), never a stale one
     monkeypatch.setattr(animals.collection, "asset_version", lambda: "9.9.9")
     assert animals.builder_digest() != digest
+
+
+def test_in_between_poses_follow_the_clip_and_slerp_the_turns(quick):
+    from scipy.spatial.transform import Rotation
+
+    from opnet.data.generators import interpolate_controls
+
+    c = quick.params["controls"]
+    other = np.flatnonzero(c[:, 0] != c[0, 0])[0]
+    c0 = c[0].astype(np.float64)
+    c1 = c0.copy()
+    c1[1] = (c0[1] + 0.3) % 1
+    c1[2:] = np.random.default_rng(0).normal(0, 0.3, len(c0) - 2)
+    path = interpolate_controls(quick, c0, c1, [0, 0.5, 1])
+    assert np.allclose(path[[0, -1]], [c0, c1]) and np.allclose(path[:, 0], c0[0])
+    assert np.isclose(path[1, 1], (c0[1] + c1[1]) / 2)  # the clip's own motion: linear in phase
+    r0, r1, rm = (Rotation.from_rotvec(p[2:].reshape(-1, 3)) for p in (c0, c1, path[1]))
+    assert np.allclose((r0.inv() * rm).magnitude(), (rm.inv() * r1).magnitude())  # halfway along each joint's arc
+    assert np.allclose((r0.inv() * rm).magnitude() * 2, (r0.inv() * r1).magnitude())
+    with pytest.raises(ValueError, match="frames of one clip"):
+        interpolate_controls(quick, c0, c[other], [0.5])
+
+
+def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, root, tmp_path):
+    from opnet.reproduce import Budget, reproduce
+
+    with pytest.raises(ValueError, match="--no-maps"):
+        reproduce("quick", tmp_path, collection="animals", maps=True)
+    with pytest.raises(ValueError, match="humans"):
+        reproduce("quick", tmp_path, collection="cats")
+    tiny = Budget(epochs=1, ablation_epochs=1, pointnet_epochs=1, analogies=3, paths=2, apps_refine_shapes=2)
+    rows = reproduce(
+        "quick",
+        tmp_path,
+        collection="animals",
+        budget=tiny,
+        ablation=False,
+        refine=False,
+        data_root=root,
+        progress=False,
+    )
+    assert {r["table"] for r in rows} == {"table1", "analogy", "interpolation"}
+    kinds = {(r["table"], r["kind"]) for r in rows if r["table"] != "table1"}
+    assert kinds == {(t, k) for t in ("analogy", "interpolation") for k in ("pose", "body")}
+    assert {r["split"] for r in rows if r["table"] == "table1"} == {"eval_subset", "test", "test_subjects"}
+    md = (tmp_path / "results.md").read_text()
+    assert "animal-type transfer" in md and "species to species" in md
+    assert "paper d_R" not in md and "target ≥ 10" not in md and "DFAUST" not in md
+    assert (tmp_path / "figures" / "analogy_body.png").is_file()

@@ -249,14 +249,28 @@ def interpolate_controls(collection, c0, c1, t) -> np.ndarray:
     """The generator's in-between controls ``(len(t), ...)`` of two shapes' controls ``c0``, ``c1`` at ``t`` ∈ [0, 1].
 
     Poses (humans, hands): each bone's local rotation is interpolated along the shortest arc (slerp, so a joint
-    turns at a constant rate about a fixed axis). Expressions (heads): the blendshape weights linearly.
+    turns at a constant rate about a fixed axis). Expressions (heads): the blendshape weights linearly. Animals
+    (``(clip, phase, turns)``, :mod:`opnet.data.animals`): two frames of one clip; the in-between follows the clip
+    from one phase to the other (its own motion, linear in phase) while each joint's extra turn is slerped.
     """
-    generated_name(collection)
+    from scipy.spatial.transform import Rotation
+
+    name = generated_name(collection)
     c0, c1 = np.asarray(c0, np.float64), np.asarray(c1, np.float64)
     t = np.atleast_1d(np.asarray(t, np.float64))
+    if name == "animals":
+        if c0[0] != c1[0]:
+            raise ValueError(
+                f"an animal's in-between poses are frames of one clip; c0 is of clip {int(c0[0])}, c1 of clip "
+                f"{int(c1[0])}: give two poses of the same clip (params['controls'][:, 0] is the clip index, "
+                "params['motion'] its name)."
+            )
+        r0, r1 = Rotation.from_rotvec(c0[2:].reshape(-1, 3)), Rotation.from_rotvec(c1[2:].reshape(-1, 3))
+        step = (r0.inv() * r1).as_rotvec()
+        turns = [(r0 * Rotation.from_rotvec(s * step)).as_rotvec().ravel() for s in t]
+        return np.column_stack([np.full(len(t), c0[0]), (1 - t) * c0[1] + t * c1[1], np.array(turns)])
     if c0.ndim == 1:  # expression weights
         return (1 - t)[:, None] * c0 + t[:, None] * c1
-    from scipy.spatial.transform import Rotation
 
     r0 = Rotation.from_matrix(c0[:, :3, :3])
     step = (r0.inv() * Rotation.from_matrix(c1[:, :3, :3])).as_rotvec()  # (bones, 3)

@@ -6,17 +6,20 @@ Three steps, each a small numpy/scipy computation:
    blend skinning with, for each joint, the transform from its bind frame in the source to its bind frame in the
    target; a joint the target lacks, an ear or tail segment, moves as its nearest ancestor that it has). The body
    lands roughly on the target: a few per cent of its height away.
-2. **Surface**: a non-rigid ICP: each iteration steps the vertices towards their closest points on the same body
-   part of the target's surface, the step smoothed by a graph Laplacian whose weight (:data:`STIFFNESS`) falls in
-   five stages (the energy: :func:`register`).
-3. **Relaxation**: a few tangential smoothing steps, each followed by a projection back onto the target's surface,
-   even out the triangles that the fit stretched.
+2. **Surface**: a non-rigid ICP: each iteration steps the vertices towards their closest points on the target's
+   surface, the step smoothed by a graph Laplacian whose weight (:data:`STIFFNESS`) falls in five stages (the
+   energy: :func:`register`). The first :data:`PARTWISE_STAGES` seek closest points on the same body part (a tail
+   cannot end on a leg), the last ones anywhere (so that the body parts' borders close up).
+3. **Relaxation**: :data:`RELAX` tangential smoothing steps, each followed by a projection back onto the target's
+   surface, even out the triangles that the fit stretched.
 
-Measured from the horse's template onto the alpaca, stag, deer, cow and wolf: 2-3 s each; the horse's tail ends on
-the target's tail (0-3 of its 110 vertices nearest another part), also where the target has fewer tail segments;
-the 1 % quantile of face quality 0.24-0.42 after three relaxation steps, but a few triangles stay thin or collapse
-(worst 0.0000-0.05) and a few edges fold (a fresh review counted 21-38 folded edge pairs per species before the
-part-wise fit): a collection built on the registrations must check and mend both; not done yet.
+Measured from the horse's template onto the ten other species in their rest pose (2026-12-03): about a minute for
+all ten on 2 cores; worst triangle quality 0.0013 (bull), 0.0014 (stag), 0.012-0.071 (alpaca, cow, deer, donkey,
+husky, wolf), 0.17-0.51 (shiba inu, fox); sharp folds (dihedral cosine below -0.9) 44 on the bull, 24 on the wolf
+(the wolf's own template has 24), 11 on the husky. Tried and not kept: an anchoring term towards the skeleton's
+pose, stiff-only fits (more folds), scaling bones by length ratios in the skeleton step (no gain), a local
+projected smoothing of the worst triangles (worse on the donkey). The collection refuses the posed shapes whose
+worst triangle is below its threshold (:data:`opnet.data.animals.collection.MIN_QUALITY`).
 """
 
 from __future__ import annotations
@@ -51,8 +54,9 @@ def register(source: Rig, target: Rig, target_surface: Rig | None = None, relax:
 
     Each ICP iteration solves ``s² ‖L (x − x_prev)‖² + ‖x − c‖²`` for the vertices ``x`` (``L`` the template's graph
     Laplacian, ``s`` the stage's :data:`STIFFNESS`, ``c`` the closest points to ``x_prev``): a step towards the
-    closest points, smoothed by the Laplacian, the stronger the stiffer. Closest points are sought on the same body
-    part (:func:`body_part` of each vertex's main joint): a tail longer than the target's cannot end on a leg.
+    closest points, smoothed by the Laplacian, the stronger the stiffer. In the first :data:`PARTWISE_STAGES` stages
+    closest points are sought on the same body part (:func:`body_part` of each vertex's main joint): a tail longer
+    than the target's cannot end on a leg; then anywhere on the surface.
     """
     from .template import body_template
 
