@@ -17,6 +17,7 @@ import dataclasses
 
 import numpy as np
 from scipy.spatial import cKDTree
+from threadpoolctl import threadpool_limits
 
 from ..._extras import require
 from ...mesh import closest_points_on_faces, components, double_areas, edge_face_counts, face_edges
@@ -50,7 +51,10 @@ def body_template(rig: Rig, n_vertices: int = TEMPLATE_VERTICES, iterations: int
     # an equilateral triangle of side l has area √3/4 l², and a closed genus-0 mesh twice as many faces as vertices;
     # the remeshing's edges come out about 7 % shorter than its target (measured on the twelve animals)
     length = 1.07 * np.sqrt(areas[body].sum() / 2 / (np.sqrt(3) / 4 * 2 * n_vertices))
-    meshes.meshing_isotropic_explicit_remeshing(targetlen=pymeshlab.PureValue(length), iterations=iterations)
+    # one OpenMP thread: with more, MeshLab's remeshing gives one of two meshes by the threads' timing (PyMeshLab
+    # issue 323; here the horse's template had 1835 or 1836 vertices, and the registrations onto it differed)
+    with threadpool_limits(limits=1, user_api="openmp"):
+        meshes.meshing_isotropic_explicit_remeshing(targetlen=pymeshlab.PureValue(length), iterations=iterations)
     out = meshes.current_mesh()
     v, f = np.asarray(out.vertex_matrix(), dtype=np.float64), np.asarray(out.face_matrix(), dtype=np.int64)
     used = np.unique(f)
