@@ -28,7 +28,7 @@ Layers, each importing only from those before it (``tests/test_data_layers.py`` 
 
 from . import animals, toy
 from .folder import load_folder
-from .generators import load_collection
+from .generators import generate_shapes, load_collection
 from .mapped import mapped_collection
 from .splits import furthest_point_subset, hausdorff, make_splits
 from .storage import SPLITS, Collection, CollectionError, default_root, read_collection, save_collection
@@ -40,6 +40,7 @@ __all__ = [
     "Collection",
     "CollectionError",
     "load_collection",
+    "generate_shapes",
     "load_folder",
     "read_collection",
     "save_collection",
