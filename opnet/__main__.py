@@ -27,7 +27,7 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument(
         "--collection",
         default="humans",
-        help="a generated collection (humans, heads, hands; default humans) or the path of a saved "
+        help="a generated collection (humans, heads, hands, animals; default humans) or the path of a saved "
         "collection's .json manifest (opnet.data.save_collection, e.g. of load_folder's result)",
     )
     t.add_argument(
@@ -147,12 +147,14 @@ def _table(rows) -> str:
 
 def _collection(args):
     from .data import load_collection, read_collection
+    from .data.generators import GENERATORS
 
     if args.collection.endswith(".json"):
         return read_collection(args.collection)
-    if args.collection not in ("humans", "heads", "hands"):
+    if args.collection not in GENERATORS:
         _parser().error(
-            f"--collection must be humans, heads, hands or a saved collection's .json, not {args.collection!r}"
+            f"--collection must be one of {', '.join(GENERATORS)} or a saved collection's .json, not "
+            f"{args.collection!r}"
         )
     return load_collection(
         args.collection, args.preset, args.data_root, resolution=args.resolution, seed=args.data_seed

@@ -61,6 +61,11 @@ def test_the_splits_hold_out_a_whole_species_and_whole_clips_of_seen_bodies(quic
         assert subs.isdisjoint(quick.subcollection[quick.split == "train"])  # whole clips
     assert np.allclose(weights.sum(1), 1) and ((weights > 0).sum(1) <= 2).all()
     assert len(quick.eval_subset) > 0 and (quick.split[quick.eval_subset] == "test").all()
+    bodies = animals.registered_species()
+    random = np.flatnonzero((quick.params["motion"] == "random") & (quick.split == "train"))
+    clips = [bodies.clips[int(c)] for c in quick.params["controls"][random, 0]]
+    held_out = set(quick.subcollection[np.isin(quick.split, ["test", "val"])])
+    assert all(f"{s}/{c}" not in held_out for s, c in zip(quick.subject[random], clips))  # legs of a training clip
 
 
 def test_the_generator_poses_bodies_again_and_blends_are_linear_in_the_posed_meshes(quick):
@@ -121,7 +126,14 @@ def test_in_between_poses_follow_the_clip_and_slerp_the_turns(quick):
 
 
 def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, root, tmp_path):
-    from opnet.reproduce import Budget, reproduce
+    from opnet.__main__ import _parser
+    from opnet.reproduce import Budget, default_out, reproduce
+
+    assert _parser().parse_args(["reproduce", "--collection", "animals"]).collection == "animals"
+    assert (
+        str(default_out("quick", "animals")) == "reproduce-animals-quick"
+        and str(default_out("quick")) == "reproduce-quick"
+    )
 
     with pytest.raises(ValueError, match="--no-maps"):
         reproduce("quick", tmp_path, collection="animals", maps=True)

@@ -348,3 +348,20 @@ def test_make_splits_holds_out_the_subjects_it_is_told():
     assert 4 in held and len(held) == 2
     with pytest.raises(ValueError, match=r"unseen subjects \[7\]"):
         opnet.data.make_splits(subjects, groups, rng, unseen=[7])
+    names = np.array(["ab", "cd", "ef", "gh"]).repeat(8)  # fixed-width strings: a longer name is not cut to fit
+    with pytest.raises(ValueError, match="abc"):
+        opnet.data.make_splits(names, groups[: len(names)], rng, unseen=["abc"])
+
+
+@pytest.mark.parametrize("preset", ["quick", "default", "paper"])
+def test_the_animals_bodies_have_distinct_names_and_hold_out_the_unseen_species(preset):
+    from opnet.data.animals import PRESETS, UNSEEN_SPECIES, body_design
+
+    species = ["horse", "alpaca", "bull", "cow", "deer", "donkey", "fox", "husky", "shibainu", "stag", "wolf"]
+    p = PRESETS[preset]
+    for seed in range(20):  # before names were redrawn, 6 of these 20 seeds named two paper bodies alike
+        weights, names, held = body_design(species, preset, np.random.default_rng(seed))
+        assert len(set(names)) == len(names) == len(weights) == len(species) + p.blends + p.unseen_blends
+        assert np.allclose(weights.sum(1), 1) and ((weights > 0).sum(1) <= 2).all()
+        with_unseen = np.flatnonzero(weights[:, species.index(UNSEEN_SPECIES)] > 0)
+        assert set(with_unseen) <= set(held) and len(held) == len(with_unseen) + p.test_blends

@@ -54,3 +54,15 @@ def test_the_package_data_covers_every_shipped_file():
     assert files
     uncovered = [f for f in files if not any(fnmatch.fnmatch(f, pat) for pat in patterns["opnet.experiments"])]
     assert not uncovered
+
+
+def test_a_report_on_other_data_sets_no_paper_numbers_or_targets_beside_it():
+    rows, context = shipped.shipped_results("default")
+    humans = "\n".join("\n".join(lines) for lines in report.results_sections(rows, context).values())
+    assert "DFAUST" in humans and "paper d_R" in humans and "target ≥ 1.5" in humans  # the humans' report has them
+    others = report.results_sections(rows, dict(context, data="animals"))
+    text = "\n".join("\n".join(lines) for lines in others.values())
+    for paper_only in ("DFAUST", "paper d_R", "target", "the paper: 100 %", "the paper 23"):
+        assert paper_only not in text, paper_only
+    assert others.keys() >= {"table1", "targets", "ablation", "applications"}  # the same sections, without them
+    assert "NN's d_R / OperatorNet (Int+Ext)'s" in "\n".join(others["targets"])

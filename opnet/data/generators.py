@@ -1,4 +1,5 @@
-"""Generators of the named collections: humans in motion, heads with expressions, hands with gestures.
+"""Generators of the named collections: humans in motion, heads with expressions, hands with gestures, animals
+(:mod:`opnet.data.animals`: species and their blends on one template, posed by their clips).
 
 Each draws its subjects and motions from one seeded ``numpy.random.Generator`` before any mesh is
 evaluated, so the 1k, 2k and 5k-vertex versions of the human collection hold the same shapes, splits
@@ -18,7 +19,7 @@ from . import animals, hands, heads, humans
 from .build import assemble
 from .splits import make_splits
 from .storage import BYTES_PER_SHAPE, Collection, check_root, default_root, read_collection, save_or_warn
-from .subjects import AVERAGE_SUBJECT, PHENOTYPES, random_subjects
+from .subjects import AVERAGE_SUBJECT, random_subjects
 
 __all__ = [
     "load_collection",
@@ -209,19 +210,27 @@ def generate_shapes(collection, phenotypes, controls, *, resolution: str | None 
 
     ``resolution`` (humans: one of :data:`opnet.data.humans.RESOLUTIONS`) gives the same shapes on another
     triangulation instead, whose faces are ``humans.human_faces(resolution)``: the 2k and 5k meshes that
-    :mod:`opnet.matching` maps onto a 1k base. ``phenotypes`` ``(N, 6)`` and ``controls`` ``(N, ...)`` are
-    generator parameters like the collection's own
-    ``params["phenotypes"]`` and ``params["controls"]`` (body or hand poses ``(bones, 4, 4)``, or facial
-    expression weights): mixing one shape's body with another's pose gives a shape the collection does not hold,
-    with its ground truth (the analogy benchmark of :mod:`opnet.apps`).
+    :mod:`opnet.matching` maps onto a 1k base. ``phenotypes`` ``(N, 6)`` (animals: species weights ``(N, S)``)
+    and ``controls`` ``(N, ...)`` are generator parameters like the collection's own ``params["phenotypes"]`` and
+    ``params["controls"]`` (body or hand poses ``(bones, 4, 4)``, facial expression weights, or the animals'
+    ``(clip, phase, turns)``; an animals collection must have been built by this opnet's code, ``meta["builder"]``):
+    mixing one shape's body with another's pose gives a shape the collection does not hold, with its ground truth
+    (the analogy benchmark of :mod:`opnet.apps`).
     """
     name = generated_name(collection)
     phenotypes, controls = np.asarray(phenotypes, np.float64), np.asarray(controls, np.float64)
     expected = collection.params["controls"].shape[1:]
-    if phenotypes.ndim != 2 or controls.shape[1:] != expected or len(controls) != len(phenotypes):
+    width = collection.params["phenotypes"].shape[1]
+    if phenotypes.shape[1:] != (width,) or controls.shape[1:] != expected or len(controls) != len(phenotypes):
         raise ValueError(
-            f"phenotypes must be (N, {len(PHENOTYPES)}) and controls (N, {', '.join(map(str, expected))}) "
+            f"phenotypes must be (N, {width}) and controls (N, {', '.join(map(str, expected))}) "
             f"with the same N, got {phenotypes.shape} and {controls.shape}."
+        )
+    if name == "animals" and collection.meta.get("builder") != animals.builder_digest():
+        raise ValueError(
+            f"this animals collection was built by other code or assets (builder {collection.meta.get('builder')}) "
+            f"than this opnet's ({animals.builder_digest()}): its shapes would not match the generator's. Load it "
+            "again with opnet.data.load_collection('animals', preset), which builds it with this code."
         )
     if resolution is None:
         resolution = collection.meta.get("resolution")

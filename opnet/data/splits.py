@@ -33,11 +33,11 @@ def make_splits(
     """
     subjects, groups = np.asarray(subjects), np.asarray(groups)
     uniq = np.unique(subjects)
-    unseen = np.asarray(unseen, dtype=subjects.dtype)
-    if not np.isin(unseen, uniq).all():
-        raise ValueError(
-            f"unseen subjects {sorted(set(unseen.tolist()) - set(uniq.tolist()))} are not among the subjects."
-        )
+    unseen = list(unseen)
+    unknown = [u for u in unseen if u not in set(uniq.tolist())]  # compared as Python values: no string truncated
+    if unknown:
+        raise ValueError(f"unseen subjects {sorted(unknown, key=str)} are not among the subjects.")
+    unseen = uniq[[u in set(unseen) for u in uniq.tolist()]]
     others = np.setdiff1d(uniq, unseen)
     if n_test_subjects >= len(others):
         raise ValueError(

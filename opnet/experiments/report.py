@@ -318,7 +318,7 @@ def results_sections(rows: list[dict], context: dict) -> dict[str, list[str]]:
     t1 = [r for r in rows if r.get("table") == "table1"]
     humans = _is_humans(context)
     sections = {"context": context_markdown(context), "table1": table1_markdown(rows, paper=humans)}
-    sections |= {"targets": targets(t1, paper=humans), "ablation": ablation_markdown(rows, context["budget"])}
+    sections |= {"targets": targets(t1, paper=humans), "ablation": ablation_markdown(rows, context["budget"], humans)}
     sections |= {"discretisation": discretisation_markdown(rows), "applications": applications_markdown(rows, context)}
     return {name: lines for name, lines in sections.items() if lines}
 
@@ -349,7 +349,7 @@ def context_markdown(context: dict) -> list[str]:
             "The paper's numbers are on DFAUST, ours on `anny` humans: the scale (metres) is alike, the data are "
             "not the same."
             if _is_humans(context)
-            else "Data: the animals of `opnet.data.animals` (Quaternius' quadrupeds on the horse's template, "
+            else "The shapes: the animals of `opnet.data.animals` (Quaternius' quadrupeds on the horse's template, "
             "species and blends between them; `test_subjects` holds held-out blends and the wolf, a species never "
             "seen in training). The paper trains on SMAL animals but publishes no numbers for them."
         ),
@@ -445,10 +445,11 @@ def headline_markdown(rows: list[dict]) -> list[str]:
     return lines
 
 
-def ablation_markdown(rows: list[dict], budget: dict) -> list[str]:
-    """The ablation (lines): the depth × channels grid of d_R beside the paper's, its caveat when the networks are
-    barely trained, and whether the paper's trends hold; empty before the first ablation network. ``budget``: the
-    reproduction's (``ablation_epochs``, ``epochs``), as a dict.
+def ablation_markdown(rows: list[dict], budget: dict, paper: bool = True) -> list[str]:
+    """The ablation (lines): the depth × channels grid of d_R beside the paper's (``paper=False``: without it, for
+    data the paper gives no numbers on), its caveat when the networks are barely trained, and whether the paper's
+    trends hold; empty before the first ablation network. ``budget``: the reproduction's (``ablation_epochs``,
+    ``epochs``), as a dict.
     """
     b = budget
     table = ablation_table(rows)
@@ -465,15 +466,16 @@ def ablation_markdown(rows: list[dict], budget: dict) -> list[str]:
         best = np.nanargmin(table[i]) if np.isfinite(table[i]).any() else -1
         cells = [f"**{_fmt(v)}**" if j == best else _fmt(v) for j, v in enumerate(table[i])]
         lines.append(f"| {_encoder(d)} | " + " | ".join(cells) + " |")
-    lines += [
-        "",
-        "The paper's (DFAUST):",
-        "",
-        "| encoder | " + " | ".join(cols) + " |",
-        "|---" * (len(cols) + 1) + "|",
-    ]
-    for d, vals in PAPER_ABLATION.items():
-        lines.append(f"| {_encoder(d)} | " + " | ".join(f"{v:g}" for v in vals) + " |")
+    if paper:
+        lines += [
+            "",
+            "The paper's (DFAUST):",
+            "",
+            "| encoder | " + " | ".join(cols) + " |",
+            "|---" * (len(cols) + 1) + "|",
+        ]
+        for d, vals in PAPER_ABLATION.items():
+            lines.append(f"| {_encoder(d)} | " + " | ".join(f"{v:g}" for v in vals) + " |")
     done = table[:, -1]
     t1 = [r for r in rows if r.get("table") == "table1"]
     nn = (_find(t1, "test", **_NN) or {}).get("d_R")
@@ -488,7 +490,8 @@ def ablation_markdown(rows: list[dict], budget: dict) -> list[str]:
         best_col = np.mean(np.argmin(table, axis=1) == len(cols) - 1)
         lines += [
             "",
-            f"All three operators give the best column in {best_col:.0%} of the depths (the paper: 100 %); "
+            f"All three operators give the best column in {best_col:.0%} of the depths"
+            f"{' (the paper: 100 %)' if paper else ''}; "
             f"depth 1 is {'the best' if np.argmin(done) == 0 else 'not the best'} for A+E+C "
             f"({', '.join(_fmt(v) for v in done)} for depths 1–4).",
         ]
@@ -602,16 +605,15 @@ def applications_markdown(rows: list[dict], context: dict | None = None) -> list
         if ours is not None and others:
             met = all(v > ours for v in others.values())
             ratios = ", ".join(f"{m} / OperatorNet = {v / ours:.2f}" for m, v in others.items())
-            verdicts.append(
-                f"- analogy, {kind}: {ratios} (target: OperatorNet (mult.) beats both at `default`): "
-                f"{'met' if met else 'missed'}."
-            )
+            verdict = f" (target: OperatorNet (mult.) beats both at `default`): {'met' if met else 'missed'}."
+            verdicts.append(f"- analogy, {kind}: {ratios}" + (verdict if _is_humans(context) else "."))
         linear = (_find(part, **_PAPER, scheme="linear") or {}).get("d_R")
         if ours is not None and linear is not None:
             verdicts.append(
                 f"- analogy, {kind}: the linear algebra's d_R / the multiplicative one's = {linear / ours:.2f}."
             )
-    return lines + (["", "**Targets**", ""] + verdicts if verdicts else [])
+    heading = "**Targets**" if _is_humans(context) else "**Ratios**"
+    return lines + (["", heading, ""] + verdicts if verdicts else [])
 
 
 def targets(t1: list[dict], paper: bool = True) -> list[str]:
@@ -645,9 +647,10 @@ def targets(t1: list[dict], paper: bool = True) -> list[str]:
         )
     theirs, ours = get(_PAPER, "test"), get(_OURS, "test")
     if theirs is not None and ours is not None:
+        verdict = f"; target ≥ 1.5 at `default`): {'met' if theirs / ours >= 1.5 else 'missed'}." if paper else ")."
         lines.append(
             f"- test: OperatorNet (Int+Ext)'s d_R / ours = {theirs / ours:.2f} ({_fmt(theirs, 1e4)} vs "
-            f"{_fmt(ours, 1e4)} ×10⁻⁴; target ≥ 1.5 at `default`): {'met' if theirs / ours >= 1.5 else 'missed'}."
+            f"{_fmt(ours, 1e4)} ×10⁻⁴{verdict}"
         )
     for fields in (_PAPER, _OURS):
         net = _find(t1, **fields)

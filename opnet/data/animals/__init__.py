@@ -41,6 +41,7 @@ from .collection import (
     AnimalPreset,
     Bodies,
     animal_collection,
+    body_design,
     builder_digest,
     registered_species,
     shape_count,
@@ -78,5 +79,6 @@ __all__ = [
     "animal_collection",
     "builder_digest",
     "registered_species",
+    "body_design",
     "shape_count",
 ]

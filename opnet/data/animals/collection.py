@@ -6,10 +6,11 @@ blends between them, posed by the species' own clips.
   ``[0.3, 0.7]``: a continuous shape space between them, like SMAL's. A body is its species weights ``(S,)``, the
   collection's ``params["phenotypes"]``.
 - **Poses**: the clips every species has (:attr:`Bodies.clips`, nine: walk, gallop, eating, idle, death …), each a
-  sequence of frames evenly spaced in phase (each body caught at its own instants), plus random poses: a random
-  clip at a random phase with the trunk, neck, head, ears and tail turned further by random rotations (:data:`TURN`
-  rad about each local axis; the legs are left to the clips: their hooves and paws hang on IK bones that a turn of
-  the leg would not carry). A pose is ``(clip index, phase in [0, 1], turns (J, 3))``, the ``params["controls"]``.
+  sequence of frames evenly spaced in phase (each body caught at its own instants), plus random poses: a clip that
+  the body trains on (never one held out for it) at a random phase, with the trunk, neck, head and tail turned
+  further by normal random rotations (standard deviation :data:`TURN` rad about each local axis; the legs are left
+  to the clips: their hooves and paws hang on IK bones that a turn of the leg would not carry). A pose is
+  ``(clip index, phase in [0, 1], turns (J, 3))``, the ``params["controls"]``.
   A blend is posed by posing each of its species with the same pose (its own clip's keys at that phase) and blending
   the posed meshes with the body's weights.
 - **Quality**: a posed shape whose worst triangle has quality ``4√3·area/Σedge²`` below :data:`MIN_QUALITY` is
@@ -53,6 +54,7 @@ __all__ = [
     "builder_digest",
     "registered_species",
     "shape_count",
+    "body_design",
     "animal_collection",
 ]
 
@@ -62,7 +64,7 @@ TEMPLATE_SPECIES = "horse"
 UNSEEN_SPECIES = "wolf"
 #: The worst face quality a shape may have (the human collections' worst is 1.2e-3).
 MIN_QUALITY = 1e-3
-#: The standard deviation (rad) of the random poses' further turn of each trunk, neck, head, ear and tail joint.
+#: The standard deviation (rad) of the random poses' further turn of each trunk, neck, head and tail joint.
 TURN = 0.15
 
 
@@ -88,8 +90,8 @@ PRESETS = {
 class Bodies:
     """The distinct species registered onto one template: ``species`` ``(S,)`` (the template's first), ``rigs``
     ``(S,)`` (:class:`~opnet.data.animals.rig.Rig` on the template's faces, each with its own skin, skeleton and
-    clips), ``clips`` (those every species has) and ``joints`` (the nodes that random poses turn: trunk, neck, head,
-    ears and tail joints every species has).
+    clips), ``clips`` (those every species has) and ``joints`` (the nodes that random poses turn: the trunk, neck,
+    head and tail joints every species has).
     """
 
     species: tuple
@@ -126,13 +128,38 @@ class Bodies:
 
 
 def builder_digest() -> str:
-    """16 hex digits naming what builds the animals: the code of this subpackage's modules (their syntax trees:
-    comments and layout left out) and the asset package's version.
+    """16 hex digits naming what builds the animals: the code of this subpackage's modules and of the geometry they
+    call (their syntax trees: comments, docstrings and layout left out), and the versions of the asset package and
+    of the meshing libraries.
     """
+    from importlib.metadata import PackageNotFoundError, version
+
+    from ... import mesh, spectral
+
     h = hashlib.sha256(asset_version().encode())
-    for module in (assets, rig, template, registration, _this_module()):
-        h.update(ast.dump(ast.parse(inspect.getsource(module))).encode())
+    for package in ("pymeshlab", "pymeshfix", "pygltflib"):
+        try:
+            h.update(f"{package} {version(package)}".encode())
+        except PackageNotFoundError:
+            h.update(f"{package} missing".encode())
+    for module in (assets, rig, template, registration, mesh, spectral, _this_module()):
+        h.update(ast.dump(_without_docstrings(ast.parse(inspect.getsource(module)))).encode())
     return h.hexdigest()[:16]
+
+
+def _without_docstrings(tree: ast.Module) -> ast.Module:
+    """``tree`` with the docstring of every module, class and function taken out (they do not change the data)."""
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if (
+            isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))
+            and body
+            and isinstance(body[0], ast.Expr)
+            and isinstance(body[0].value, ast.Constant)
+            and isinstance(body[0].value.value, str)
+        ):
+            node.body = body[1:] or [ast.Pass()]
+    return tree
 
 
 def _this_module():
@@ -155,7 +182,8 @@ def registered_species(root=None, progress: bool | None = None) -> Bodies:
 
     digest = builder_digest()
     path = (Path(root) if root is not None else default_root()) / f"animals-registered-{digest}.npz"
-    if digest not in _REGISTERED:
+    built = digest not in _REGISTERED
+    if built:
         names = _distinct_species()
         if path.is_file():
             with np.load(path) as stored:
@@ -175,7 +203,7 @@ def registered_species(root=None, progress: bool | None = None) -> Bodies:
                 rigs.append(registered_rig(rigs[0], read_rig(name)))
         _REGISTERED[digest] = _bodies(names, rigs)
     bodies = _REGISTERED[digest]
-    if not path.is_file():  # built now, or earlier in this process for another root
+    if not path.is_file() and (built or root is not None):  # built now, or earlier in this process for another root
         arrays = dict(
             vertices=np.stack([r.vertices for r in bodies.rigs]),
             faces=bodies.faces,
@@ -220,20 +248,28 @@ def shape_count(preset: str) -> int:
     return (11 + p.blends + p.unseen_blends) * (9 * p.frames + p.random)
 
 
-def _body_design(bodies: Bodies, p: AnimalPreset, rng: np.random.Generator):
-    """Species weights ``(B, S)``, names ``(B,)`` and the bodies held out (``test_subjects``): the species, then the
-    blends of seen species (the last ``test_blends`` of them held out), then those of the unseen species.
+def body_design(species_names, preset: str, rng: np.random.Generator):
+    """The bodies of the animals at ``preset``: species weights ``(B, S)``, names ``(B,)`` (distinct) and the indices
+    of the bodies held out (``test_subjects``): the species ``species_names`` (:attr:`Bodies.species`), then the
+    blends of seen species (the last ``test_blends`` of them held out), then those of the unseen species. A blend
+    whose name (its species and rounded weights) another body already has is drawn again.
     """
-    s = len(bodies.species)
-    unseen = bodies.species.index(UNSEEN_SPECIES)
+    p = PRESETS[preset]
+    species_names = list(species_names)
+    s = len(species_names)
+    unseen = species_names.index(UNSEEN_SPECIES)
     seen = [i for i in range(s) if i != unseen]
-    weights, names = list(np.eye(s)), list(bodies.species)
+    weights, names = list(np.eye(s)), list(species_names)
     for k in range(p.blends + p.unseen_blends):
-        a, b = (unseen, rng.choice(seen)) if k >= p.blends else rng.choice(seen, 2, replace=False)
-        w = rng.uniform(0.3, 0.7)
+        while True:
+            a, b = (unseen, rng.choice(seen)) if k >= p.blends else rng.choice(seen, 2, replace=False)
+            w = rng.uniform(0.3, 0.7)
+            name = f"{species_names[a]}{round(100 * (1 - w))}+{species_names[b]}{round(100 * w)}"
+            if name not in names:
+                break
         weights.append(np.zeros(s))
         weights[-1][[a, b]] = 1 - w, w
-        names.append(f"{bodies.species[a]}{round(100 * (1 - w))}+{bodies.species[b]}{round(100 * w)}")
+        names.append(name)
     weights = np.array(weights)
     held = np.r_[np.arange(s + p.blends - p.test_blends, s + p.blends), np.flatnonzero(weights[:, unseen] > 0)]
     return weights, np.array(names), held
@@ -246,7 +282,7 @@ def animal_collection(preset: str, seed: int, meta: dict, root=None, progress: b
     p = PRESETS[preset]
     bodies = registered_species(root, progress)
     rng = np.random.default_rng(seed)
-    weights, names, held = _body_design(bodies, p, rng)
+    weights, names, held = body_design(bodies.species, preset, rng)
     body, motion, frame, controls = [], [], [], []
     for b in range(len(weights)):
         for c, clip in enumerate(bodies.clips):
@@ -255,12 +291,11 @@ def animal_collection(preset: str, seed: int, meta: dict, root=None, progress: b
             motion += [clip] * p.frames
             frame += range(p.frames)
             controls += [np.r_[c, u, np.zeros(3 * len(bodies.joints))] for u in phase]
-        for k in range(p.random):
+        for k in range(p.random):  # their clips are drawn below, once the splits are known
             body.append(b)
             motion.append("random")
             frame.append(k)
-            turns = rng.normal(0.0, TURN, 3 * len(bodies.joints))
-            controls.append(np.r_[rng.integers(len(bodies.clips)), rng.uniform(), turns])
+            controls.append(np.r_[-1, rng.uniform(), rng.normal(0.0, TURN, 3 * len(bodies.joints))])
     body, motion, frame, controls = np.array(body), np.array(motion), np.array(frame), np.array(controls)
     split = make_splits(
         body,
@@ -271,6 +306,16 @@ def animal_collection(preset: str, seed: int, meta: dict, root=None, progress: b
         held_out_groups={"random"},
         unseen=held,
     )
+    # a random pose takes the legs of a clip that its body trains on: never of a clip held out for it (test, val)
+    for i in np.flatnonzero(motion == "random"):
+        kept = sorted(
+            {
+                c
+                for c, clip in enumerate(bodies.clips)
+                if ((body == body[i]) & (motion == clip) & (split == split[i])).any()
+            }
+        )
+        controls[i, 0] = rng.choice(kept)
     vertices = bodies.shapes(weights[body], controls)
     worst = face_quality(vertices, bodies.faces).min(-1)
     keep = worst >= MIN_QUALITY
