@@ -13,6 +13,7 @@ __all__ = [
     "headless",
     "use_static_backend",
     "to_pyvista",
+    "side_view",
     "plot_meshes",
     "plot_operators",
     "plot_reconstructions",
@@ -75,6 +76,17 @@ def to_pyvista(mesh):
     v, f = (mesh.vertices, mesh.faces) if isinstance(mesh, Mesh) else mesh
     f = np.asarray(f)
     return pv.PolyData(np.asarray(v), np.hstack([np.full((len(f), 1), 3), f]).ravel())
+
+
+#: The camera position of a side view, per generated collection whose up axis is not z (the animals' glTF is y up).
+SIDE_VIEWS = {"animals": "zy"}
+
+
+def side_view(collection) -> str:
+    """The pyvista camera position (``camera=`` of the plots here) that shows ``collection``'s shapes from the side:
+    ``"zy"`` for the animals (y up), ``"xz"`` for the others (z up).
+    """
+    return SIDE_VIEWS.get(collection.meta.get("name"), "xz")
 
 
 def plot_meshes(

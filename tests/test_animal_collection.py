@@ -158,3 +158,4 @@ def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, r
     assert "animal-type transfer" in md and "species to species" in md
     assert "paper d_R" not in md and "target ≥ 10" not in md and "DFAUST" not in md
     assert (tmp_path / "figures" / "analogy_body.png").is_file()
+    assert opnet.plotting.side_view(quick) == "zy"  # the figures show the animals (y up) from the side

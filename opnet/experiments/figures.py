@@ -34,7 +34,7 @@ def table1_figures(out: Path, coll, ours, nn, histories: dict) -> None:
     """
     plt = require("matplotlib.pyplot", "opnet.reproduce's figures")
 
-    from ..plotting import headless, plot_history, plot_reconstructions
+    from ..plotting import headless, plot_history, plot_reconstructions, side_view
 
     fig_dir = out / "figures"
     fig_dir.mkdir(exist_ok=True)
@@ -52,6 +52,7 @@ def table1_figures(out: Path, coll, ours, nn, histories: dict) -> None:
             {ours.name: ours.reconstruct(pick), "NN": nn.reconstruct(pick)},
             coll.faces,
             titles=[str(coll.subcollection[i]) for i in pick],
+            camera=side_view(coll),
         )
         plotter.screenshot(str(fig_dir / f"reconstructions_{split}.png"))
         plotter.close()
@@ -76,7 +77,7 @@ def application_figures(out: Path, coll, methods, quads, paths) -> None:
     :class:`opnet.apps.ShapeAlgebra` objects.
     """
     from ..metrics import d_R
-    from ..plotting import headless, plot_analogies, plot_interpolations
+    from ..plotting import headless, plot_analogies, plot_interpolations, side_view
 
     headless()
     out.mkdir(parents=True, exist_ok=True)
@@ -87,6 +88,7 @@ def application_figures(out: Path, coll, methods, quads, paths) -> None:
             coll.faces,
             P.t,
             truth=P.truth[i],
+            camera=side_view(coll),
         )
         plotter.screenshot(str(out / f"interpolation_{P.kind}.png"))
         plotter.close()
@@ -99,6 +101,7 @@ def application_figures(out: Path, coll, methods, quads, paths) -> None:
             {m.name: m.analogy(Q.A[:q], Q.B[:q], Q.C[:q]) for m in methods},
             coll.faces,
             truth=Q.X[:q],
+            camera=side_view(coll),
         )
         plotter.screenshot(str(out / f"analogy_{Q.kind}.png"))
         plotter.close()
@@ -156,7 +159,7 @@ def refinement_figures(out: Path, coll, net_method, steps: int, *, device="cpu",
     """
     plt = require("matplotlib.pyplot", "opnet.reproduce's figures")
 
-    from ..plotting import headless, plot_reconstructions, plot_refinement_curves
+    from ..plotting import headless, plot_reconstructions, plot_refinement_curves, side_view
 
     idx = test_set_indices(coll, "test")
     idx = evenly_spaced(idx, 8)
@@ -176,7 +179,11 @@ def refinement_figures(out: Path, coll, net_method, steps: int, *, device="cpu",
     headless()
     name = f"from {net_method.name}"
     plotter = plot_reconstructions(
-        coll.vertices[idx[:1]], {f"step {s}": snaps[name][s][None] for s in shown}, coll.faces, titles=["refined"]
+        coll.vertices[idx[:1]],
+        {f"step {s}": snaps[name][s][None] for s in shown},
+        coll.faces,
+        titles=["refined"],
+        camera=side_view(coll),
     )
     plotter.screenshot(str(out / "figures" / "refinement_steps.png"))
     plotter.close()
