@@ -319,7 +319,8 @@ def results_sections(rows: list[dict], context: dict) -> dict[str, list[str]]:
     humans = _is_humans(context)
     sections = {"context": context_markdown(context), "table1": table1_markdown(rows, paper=humans)}
     sections |= {"targets": targets(t1, paper=humans), "ablation": ablation_markdown(rows, context["budget"], humans)}
-    sections |= {"discretisation": discretisation_markdown(rows), "applications": applications_markdown(rows, context)}
+    other_meshes = discretisation_markdown(rows) if humans else []  # the humans' 2k and 5k meshes
+    sections |= {"discretisation": other_meshes, "applications": applications_markdown(rows, context)}
     return {name: lines for name, lines in sections.items() if lines}
 
 
@@ -674,7 +675,7 @@ def targets(t1: list[dict], paper: bool = True) -> list[str]:
             f"({_fmt(funcchar['d_R'], 1e4)} on {funcchar['n_shapes']} shapes vs {_fmt(truth, 1e4)} ×10⁻⁴; the paper "
             f"{published:.3g}{other})."
         )
-    for comp_row in (r for r in t1 if r["split"] == "test" and matches(r, group="comp", refined=None)):
+    for comp_row in (r for r in t1 if paper and r["split"] == "test" and matches(r, group="comp", refined=None)):
         channels = row_channels(comp_row)
         comp, same = comp_row.get("d_R"), get(_network(channels), "test")
         if comp is not None and truth is not None:
