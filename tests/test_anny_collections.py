@@ -99,7 +99,7 @@ def test_same_seed_same_collection(humans, tmp_path):
 
 def test_unknown_names_and_presets(root):
     with pytest.raises(ValueError, match="unknown collection"):
-        opnet.data.load_collection("animals", "quick", root)
+        opnet.data.load_collection("cats", "quick", root)
     with pytest.raises(ValueError, match="unknown preset"):
         opnet.data.load_collection("humans", "huge", root)
 

@@ -343,7 +343,7 @@ def test_cli_train_and_evaluate_on_a_saved_collection(coll, tmp_path, cli):
     assert out.returncode == 0, out.stderr
     rows = json.loads((tmp_path / "e.json").read_text())
     assert {r["method"] for r in rows} == {"OperatorNet (A+E)", "Nearest neighbour (A+E)", "Base shape"}
-    bad = cli("train", "--collection", "animals", "--run-dir", str(run))
+    bad = cli("train", "--collection", "cats", "--run-dir", str(run))
     assert bad.returncode == 2 and "--collection must be" in bad.stderr
     bad = cli("train", "--epochs", "0", "--run-dir", str(run))
     assert bad.returncode == 2 and "expected a positive integer" in bad.stderr
