@@ -274,20 +274,30 @@ def interpolate_controls(collection, c0, c1, t) -> np.ndarray:
                 f"{int(c1[0])}: give two poses of the same clip (params['controls'][:, 0] is the clip index, "
                 "params['motion'] its name)."
             )
-        r0, r1 = Rotation.from_rotvec(c0[2:].reshape(-1, 3)), Rotation.from_rotvec(c1[2:].reshape(-1, 3))
-        step = (r0.inv() * r1).as_rotvec()
-        turns = [(r0 * Rotation.from_rotvec(s * step)).as_rotvec().ravel() for s in t]
+        turns = [
+            r.as_rotvec().ravel() for r in _slerp(*(Rotation.from_rotvec(c[2:].reshape(-1, 3)) for c in (c0, c1)), t)
+        ]
         return np.column_stack([np.full(len(t), c0[0]), (1 - t) * c0[1] + t * c1[1], np.array(turns)])
     if c0.ndim == 1:  # expression weights
         return (1 - t)[:, None] * c0 + t[:, None] * c1
 
-    r0 = Rotation.from_matrix(c0[:, :3, :3])
-    step = (r0.inv() * Rotation.from_matrix(c1[:, :3, :3])).as_rotvec()  # (bones, 3)
     out = np.broadcast_to(np.eye(4), (len(t), *c0.shape)).copy()
-    for i, s in enumerate(t):
-        out[i, :, :3, :3] = (r0 * Rotation.from_rotvec(s * step)).as_matrix()
+    for i, (s, r) in enumerate(
+        zip(t, _slerp(Rotation.from_matrix(c0[:, :3, :3]), Rotation.from_matrix(c1[:, :3, :3]), t))
+    ):
+        out[i, :, :3, :3] = r.as_matrix()
         out[i, :, :3, 3] = (1 - s) * c0[:, :3, 3] + s * c1[:, :3, 3]
     return out
+
+
+def _slerp(r0, r1, t) -> list:
+    """Each rotation of the stack ``r0`` (a scipy ``Rotation``) turned towards ``r1``'s along the shortest arc, at
+    each ``t`` ∈ [0, 1]: a list of ``len(t)`` stacks.
+    """
+    from scipy.spatial.transform import Rotation
+
+    step = (r0.inv() * r1).as_rotvec()
+    return [r0 * Rotation.from_rotvec(s * step) for s in t]
 
 
 def stem_name(meta: dict) -> str:
