@@ -6,9 +6,11 @@
 #   make test-core  the core tier in .venv-core, an environment with opnet alone (no extras), as `pip install .`
 #   make docs   the documentation site into build/docs/ (warnings are errors, every reference must resolve;
 #               Python >= 3.11, and every extra: the API pages import the modules)
-#   make reproduce PRESET=default   Table 1 + ablation into build/reproduce-$(PRESET) (results.json/md, figures)
+#   make reproduce PRESET=default   Table 1 + ablation into build/reproduce-$(PRESET) (results.json/md, figures);
+#               COLLECTION=animals: the animals, into build/reproduce-animals-$(PRESET)
 #   make ship-results  copy build/reproduce-default's results.json and figures into the package
-#               (opnet/experiments/results/default/: what the notebooks and the docs show as the shipped `default`)
+#               (opnet/experiments/results/default/: what the notebooks and the docs show as the shipped `default`;
+#               COLLECTION=animals: build/reproduce-animals-default into results/animals-default)
 #   make benchmarks  measure again the benchmarks the docs show, into benchmarks/results/*.json (an idle machine;
 #               about 20 min on 2 cores, most of it the PointNet one); the ones that train or read networks (matching,
 #               refinement, scaling, variants, offset channels): make benchmarks-results (hours)
@@ -70,15 +72,18 @@ docs: $(STAMP)
 	$(PY) -m sphinx -W --keep-going -n -b html docs build/docs
 	@echo "documentation: build/docs/index.html"
 
+# COLLECTION=animals: the animals (build/reproduce-animals-$(PRESET); shipped in results/animals-default)
+COLLECTION ?= humans
+PREFIX := $(if $(filter humans,$(COLLECTION)),,$(COLLECTION)-)
 reproduce: $(STAMP)
-	$(PY) -m opnet reproduce --preset $(PRESET) --out build/reproduce-$(PRESET)
+	$(PY) -m opnet reproduce --preset $(PRESET) --collection $(COLLECTION) --out build/reproduce-$(PREFIX)$(PRESET)
 
-SHIPPED := opnet/experiments/results/default
+SHIPPED := opnet/experiments/results/$(PREFIX)default
 ship-results:
-	test -f build/reproduce-default/results.json || { echo "no build/reproduce-default/results.json: make reproduce PRESET=default first" >&2; exit 1; }
+	test -f build/reproduce-$(PREFIX)default/results.json || { echo "no build/reproduce-$(PREFIX)default/results.json: make reproduce PRESET=default COLLECTION=$(COLLECTION) first" >&2; exit 1; }
 	rm -rf $(SHIPPED) && mkdir -p $(SHIPPED)/figures
-	cp build/reproduce-default/results.json $(SHIPPED)/
-	cp build/reproduce-default/figures/*.png $(SHIPPED)/figures/
+	cp build/reproduce-$(PREFIX)default/results.json $(SHIPPED)/
+	cp build/reproduce-$(PREFIX)default/figures/*.png $(SHIPPED)/figures/
 
 # One script after the other, never side by side: each times the whole machine.
 benchmarks: $(STAMP)

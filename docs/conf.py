@@ -29,6 +29,7 @@ from generated import write_benchmark_fragments, write_results_fragments  # noqa
 
 write_benchmark_fragments(Path(__file__).resolve().parent / "_generated" / "benchmarks")
 write_results_fragments(Path(__file__).resolve().parent / "_generated" / "results")
+write_results_fragments(Path(__file__).resolve().parent / "_generated" / "results-animals", collection="animals")
 
 project = "opnet"
 author = "the opnet authors"

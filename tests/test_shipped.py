@@ -66,3 +66,30 @@ def test_a_report_on_other_data_sets_no_paper_numbers_or_targets_beside_it():
         assert paper_only not in text, paper_only
     assert others.keys() >= {"table1", "targets", "ablation", "applications"}  # the same sections, without them
     assert "NN's d_R / OperatorNet (Int+Ext)'s" in "\n".join(others["targets"])
+
+
+def test_the_shipped_animals_hold_table1_nn_and_the_applications():
+    """The animals' `default` reproduction ships beside the humans' (results/animals-default): Table 1's networks
+    and NN on both test sets, the analogy and interpolation benchmarks, its figures, and no paper numbers."""
+    assert shipped.shipped_presets("animals") == ["default"] and "default" in shipped.shipped_presets()
+    rows, context = shipped.shipped_results("default", "animals")
+    assert context["preset"] == "default" and context.get("data") == "animals"
+    for channels in PAPER_NETWORKS.values():
+        for split in ("test", "test_subjects"):
+            fields = dict(table="table1", architecture="operatornet", variant="paper", group="table1", refined=None)
+            row = next(r for r in rows if r["split"] == split and report.matches(r, channels=channels, **fields))
+            assert 0 < row["d_R"] < 1e-1, row["method"]
+    assert {r["split"] for r in rows if r["table"] == "table1" and r.get("baseline") == "nearest_neighbour"} >= {
+        "test",
+        "test_subjects",
+    }
+    assert {(r["table"], r["kind"]) for r in rows if r["table"] in ("analogy", "interpolation")} == {
+        (t, k) for t in ("analogy", "interpolation") for k in ("pose", "body")
+    }
+    text = "\n".join("\n".join(lines) for lines in report.results_sections(rows, context).values())
+    assert "animal-type transfer" in text and "DFAUST" not in text
+    names = shipped.shipped_figures("default", "animals")
+    assert {"training_curves", "analogy_body", "interpolation_body"} <= set(names)
+    assert shipped.shipped_figure("analogy_body", collection="animals").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(FileNotFoundError, match="--collection animals"):
+        shipped.shipped_results("paper", "animals")

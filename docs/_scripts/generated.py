@@ -6,7 +6,8 @@
 - The shipped reproduction (``opnet.experiments.shipped``: the ``results.json`` and figures of ``python -m opnet
   reproduce --preset default``): :func:`write_results_fragments` renders each section of its ``results.md``
   (``opnet.experiments.report.results_sections``) into ``docs/_generated/results/<section>.md`` and copies its
-  figures to ``docs/_generated/results/figures/``.
+  figures to ``docs/_generated/results/figures/``; the animals' (``--collection animals``) go to
+  ``docs/_generated/results-animals/``.
 
 ``docs/conf.py`` calls both at every build, so a page cannot drift from its file.
 """
@@ -61,25 +62,28 @@ def _write_if_changed(target: Path, content: str | bytes) -> Path:
     return target
 
 
-def results_fragments(preset: str = "default") -> dict[str, str]:
-    """Name → Markdown of the shipped reproduction at ``preset``: each section of its ``results.md`` (every name of
-    ``SECTION_TITLES``; a section the shipped run has no rows for says so).
+def results_fragments(preset: str = "default", collection: str = "humans") -> dict[str, str]:
+    """Name → Markdown of the shipped reproduction of ``collection`` at ``preset``: each section of its
+    ``results.md`` (every name of ``SECTION_TITLES``; a section the shipped run has no rows for says so).
     """
-    rows, context = shipped_results(preset)
+    rows, context = shipped_results(preset, collection)
     sections = results_sections(rows, context)
+    other = "" if collection == "humans" else f" --collection {collection}"
     missing = (
-        f"*Not in the shipped `{preset}` reproduction yet*; `python -m opnet reproduce --preset {preset}` computes "
-        "it (a call with only that part, into a copy of the shipped folder, adds it to the rest)."
+        f"*Not in the shipped `{preset}` reproduction yet*; `python -m opnet reproduce --preset {preset}{other}` "
+        "computes it (a call with only that part, into a copy of the shipped folder, adds it to the rest)."
     )
     return {name: "\n".join(sections.get(name) or [missing]) + "\n" for name in SECTION_TITLES}
 
 
-def write_results_fragments(out: Path, preset: str = "default") -> list[Path]:
+def write_results_fragments(out: Path, preset: str = "default", collection: str = "humans") -> list[Path]:
     """Write ``out/<name>.md`` for every :func:`results_fragments` and copy the shipped figures to
     ``out/figures/<name>.png``; the paths written.
     """
     (out / "figures").mkdir(parents=True, exist_ok=True)
-    written = [_write_if_changed(out / f"{name}.md", text) for name, text in results_fragments(preset).items()]
-    for name in shipped_figures(preset):
-        written.append(_write_if_changed(out / "figures" / f"{name}.png", shipped_figure(name, preset).read_bytes()))
+    fragments = results_fragments(preset, collection)
+    written = [_write_if_changed(out / f"{name}.md", text) for name, text in fragments.items()]
+    for name in shipped_figures(preset, collection):
+        figure = shipped_figure(name, preset, collection).read_bytes()
+        written.append(_write_if_changed(out / "figures" / f"{name}.png", figure))
     return written

@@ -56,7 +56,7 @@ _KIND_NAMES = {
     "analogy": {"pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)", "body": "body transfer (a,p):(b,p)::(a,q):(b,q)"},
     "interpolation": {"pose": "one subject, pose to pose", "body": "one pose, subject to subject"},
 }
-#: The animals' names of the same kinds (the paper's Fig. 13: pose and animal-type transfer; its tiger → horse).
+#: The animals' names of the same kinds (the paper's Fig. 15: pose and animal-type transfer; its Fig. 8: tiger → horse).
 _ANIMAL_KIND_NAMES = {
     "analogy": {
         "pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)",

@@ -14,50 +14,61 @@ from .report import read_results
 
 __all__ = ["SHIPPED_DIR", "shipped_presets", "shipped_results", "shipped_figure", "shipped_figures"]
 
-#: Where the shipped reproductions are: one folder per preset, each with ``results.json`` and ``figures/``.
+#: Where the shipped reproductions are: one folder per collection and preset (``default`` for the humans,
+#: ``animals-default`` for the animals), each with ``results.json`` and ``figures/``.
 SHIPPED_DIR = Path(__file__).resolve().parent / "results"
 
 
-def shipped_presets() -> list[str]:
-    """The presets whose reproduction is shipped (folders of :data:`SHIPPED_DIR` holding a ``results.json``)."""
+def _folder_name(preset: str, collection: str) -> str:
+    return preset if collection == "humans" else f"{collection}-{preset}"
+
+
+def shipped_presets(collection: str = "humans") -> list[str]:
+    """The presets whose reproduction of ``collection`` (``"humans"`` or ``"animals"``) is shipped."""
     if not SHIPPED_DIR.is_dir():
         return []
-    return sorted(p.name for p in SHIPPED_DIR.iterdir() if (p / "results.json").is_file())
+    shipped = (p.name for p in SHIPPED_DIR.iterdir() if (p / "results.json").is_file())
+    if collection == "humans":
+        return sorted(name for name in shipped if "-" not in name)
+    return sorted(name.removeprefix(f"{collection}-") for name in shipped if name.startswith(f"{collection}-"))
 
 
-def _folder(preset: str) -> Path:
-    folder = SHIPPED_DIR / preset
+def _folder(preset: str, collection: str) -> Path:
+    folder = SHIPPED_DIR / _folder_name(preset, collection)
     if not (folder / "results.json").is_file():
+        other = "" if collection == "humans" else f" --collection {collection}"
         raise FileNotFoundError(
-            f"no shipped reproduction for preset {preset!r} (shipped: {shipped_presets() or 'none'}); run "
-            f"`python -m opnet reproduce --preset {preset} --out DIR` and read DIR with "
-            "opnet.reproduce.read_results(DIR) instead."
+            f"no shipped reproduction of the {collection} for preset {preset!r} (shipped: "
+            f"{shipped_presets(collection) or 'none'}); run `python -m opnet reproduce --preset {preset}{other} "
+            "--out DIR` and read DIR with opnet.reproduce.read_results(DIR) instead."
         )
     return folder
 
 
-def shipped_results(preset: str = "default") -> tuple[list[dict], dict]:
-    """The rows and the context of the shipped reproduction at ``preset`` (:func:`opnet.reproduce.read_results` of its
-    ``results.json``): rows with structured fields (``table``, ``run``, ``baseline``, ``split``, ``d_R`` in m² ...),
-    and the context (``preset``, ``machine``, ``collection``, ``budget``, ``wall_seconds`` ...).
+def shipped_results(preset: str = "default", collection: str = "humans") -> tuple[list[dict], dict]:
+    """The rows and the context of the shipped reproduction of ``collection`` (``"humans"``, the paper's Table 1, or
+    ``"animals"``) at ``preset`` (:func:`opnet.reproduce.read_results` of its ``results.json``): rows with
+    structured fields (``table``, ``run``, ``baseline``, ``split``, ``d_R`` in m² ...), and the context (``preset``,
+    ``machine``, ``collection``, ``budget``, ``wall_seconds`` ...).
 
     Raises :class:`FileNotFoundError`, naming the presets that are shipped, when ``preset`` is not.
     """
-    return read_results(_folder(preset) / "results.json")
+    return read_results(_folder(preset, collection) / "results.json")
 
 
-def shipped_figures(preset: str = "default") -> list[str]:
+def shipped_figures(preset: str = "default", collection: str = "humans") -> list[str]:
     """The names of the shipped reproduction's figures at ``preset`` (``"training_curves"``, ``"ablation"`` ...)."""
-    return sorted(p.stem for p in (_folder(preset) / "figures").glob("*.png"))
+    return sorted(p.stem for p in (_folder(preset, collection) / "figures").glob("*.png"))
 
 
-def shipped_figure(name: str, preset: str = "default") -> Path:
+def shipped_figure(name: str, preset: str = "default", collection: str = "humans") -> Path:
     """The path of the shipped figure ``name`` (``"ablation"``, ``"training_curves"``, ``"reconstructions_test"``
-    ...; :func:`shipped_figures` lists them) of the reproduction at ``preset``: a PNG file.
+    ...; :func:`shipped_figures` lists them) of the reproduction of ``collection`` at ``preset``: a PNG file.
     """
-    path = _folder(preset) / "figures" / f"{name}.png"
+    path = _folder(preset, collection) / "figures" / f"{name}.png"
     if not path.is_file():
         raise FileNotFoundError(
-            f"the shipped {preset!r} reproduction has no figure {name!r}; it has {shipped_figures(preset)}."
+            f"the shipped {preset!r} reproduction of the {collection} has no figure {name!r}; it has "
+            f"{shipped_figures(preset, collection)}."
         )
     return path
