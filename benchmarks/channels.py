@@ -6,7 +6,8 @@ Times, on the humans collection of a preset (built or read from ``$OPNET_DATA_DI
   collection) and the second (read back from the cache);
 - a channel with ``project`` only (shape by shape) on ``--shapes`` shapes, in this process and in processes
   (``n_jobs=-1``), side by side in one run: the ratio is what the processes buy on this machine;
-- the built-in area channel through the same batched path, as the reference.
+- the built-in area channel through the same batched path, as the reference;
+- FuncChar's two built-in offset channels (``offset_area``, ``offset_conformal``) over every shape, computed anew.
 
 Run::
 
@@ -72,6 +73,8 @@ def measure(args) -> dict:
     results |= {"cpu_count": os.cpu_count(), "loadavg_1min_at_start": round(load, 2)}
     _, results["batched_first_s"] = timed(lambda: coll.with_kinds([RadialArea()], progress=False))
     _, results["batched_cached_s"] = timed(lambda: coll.with_kinds([RadialArea()], progress=False))
+    offsets = [opnet.inner_products.get_inner_product(name) for name in ("offset_area", "offset_conformal")]
+    _, results["offset_builtin_s"] = timed(lambda: coll.with_kinds(offsets, recompute=True, progress=False))
     few = coll.subset(np.arange(min(args.shapes, len(coll))))
     _, results["area_builtin_s"] = timed(lambda: few.with_kinds([opnet.AreaInnerProduct()], recompute=True))
     one, results["one_by_one_serial_s"] = timed(lambda: few.with_kinds([RadialAreaOneByOne()], n_jobs=1))
@@ -103,6 +106,14 @@ def report(r: dict) -> str:
             f"{r['one_by_one_processes_s'] / few * 1e3:.1f} |",
             f"| built-in area, batched, on the same shapes | {few} | {r['area_builtin_s']:.2f} | "
             f"{r['area_builtin_s'] / few * 1e3:.2f} |",
+            *(
+                [
+                    f"| built-in offset channels (`offset_area` + `offset_conformal`), computed anew and cached | "
+                    f"{r['shapes']} | {r['offset_builtin_s']:.1f} | {r['offset_builtin_s'] / r['shapes'] * 1e3:.2f} |"
+                ]
+                if "offset_builtin_s" in r
+                else []
+            ),
             "",
             f"The processes are {speedup:.2f}× as fast as this process alone. Measured {r['date']} on "
             f"{r['cpu_count']} cores; load average {r['loadavg_1min_at_start']} at the start, "

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import threading
+import weakref
 from collections import OrderedDict
 
 import numpy as np
@@ -23,14 +24,24 @@ MAX_BYTES = 512 * 2**20
 _KEPT: OrderedDict = OrderedDict()  # key -> (value, bytes)
 _LOCK = threading.Lock()  # the fast path's threads share the kept values
 _TOTAL = [0]  # bytes kept
+_FROZEN: dict = {}  # id of a kept array -> (weak reference to it, its digest)
 
 
 def _digest(arrays) -> bytes:
     h = hashlib.blake2b(digest_size=20)
     for a in arrays:
-        a = np.ascontiguousarray(a)
-        h.update(f"{a.shape}{a.dtype.str};".encode())
-        h.update(a.data)
+        h.update(_array_digest(a))
+    return h.digest()
+
+
+def _array_digest(a) -> bytes:
+    """The digest of one array's shape, dtype and bytes; a kept value (read-only, :func:`_freeze`) is hashed once."""
+    known = _FROZEN.get(id(a))
+    if known is not None and known[0]() is a and not a.flags.writeable:
+        return known[1]
+    c = np.ascontiguousarray(a)
+    h = hashlib.blake2b(f"{c.shape}{c.dtype.str};".encode(), digest_size=20)
+    h.update(c.data)
     return h.digest()
 
 
@@ -47,6 +58,10 @@ def _freeze(value):
         return tuple(map(_freeze, value))
     for a in (value.data, value.indices, value.indptr) if sp.issparse(value) else (value,):
         a.setflags(write=False)
+    if isinstance(value, np.ndarray):  # a kept array may be a key of another value: its digest computed once
+        digest = _array_digest(value)
+        with _LOCK:
+            _FROZEN[id(value)] = (weakref.ref(value, lambda _, i=id(value): _FROZEN.pop(i, None)), digest)
     return value
 
 

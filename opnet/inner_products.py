@@ -38,6 +38,7 @@ import types
 import numpy as np
 
 from . import _backend as B
+from . import _memo
 from ._checks import describe
 from .mesh import REFUSE_QUALITY
 from .spectral import (
@@ -290,7 +291,12 @@ def _conformal_gram(vertices, faces, evecs):
 def _edge_gram(evecs, faces, weights):
     """``Σ_e w_e (φ_i − φ_j)(φ_i − φ_j)ᵀ`` ``(..., k, k)`` for edge weights ``(..., e)`` on ``unique_edges(faces)``."""
     edges = B.edges(faces)
-    return B.weighted_gram(evecs[edges[:, 0]] - evecs[edges[:, 1]], weights)
+    if B.is_tensor(evecs) or B.is_tensor(weights):
+        return B.weighted_gram(evecs[edges[:, 0]] - evecs[edges[:, 1]], weights)
+    # numpy: the differences kept for the next batch on the same basis and faces (their table is then found without
+    # hashing them again)
+    diffs = _memo.by_content("edge differences", (evecs, faces), lambda: evecs[edges[:, 0]] - evecs[edges[:, 1]])
+    return B.weighted_gram(diffs, weights)
 
 
 def _extrinsic_gram(evecs, a, vertices):

@@ -230,6 +230,27 @@ def test_kept_values_follow_the_arrays_contents():
     assert _memo.by_content("test", (a.astype(np.float32),), build) is not None and len(built) == 3  # dtype counts
 
 
+def test_a_kept_array_as_a_key_is_hashed_once_and_still_by_its_contents(monkeypatch):
+    """A kept value (read-only) that keys another is found by its digest, taken once; equal contents in another
+    array give the same key, and a writeable array is hashed every time."""
+    from opnet import _memo
+
+    kept = _memo.by_content("test kept", (np.arange(5.0),), lambda: np.linspace(0, 1, 7))
+    hashed = []
+    real = _memo.hashlib.blake2b
+
+    def counting(*args, **kwargs):
+        hashed.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(_memo.hashlib, "blake2b", counting)
+    derived = _memo.by_content("test derived", (kept,), lambda: kept * 3)
+    assert _memo.by_content("test derived", (kept,), lambda: None) is derived
+    assert len(hashed) == 3  # each call's key, and the new kept value's digest: not the kept key's bytes again
+    assert _memo.by_content("test derived", (np.linspace(0, 1, 7),), lambda: None) is derived  # same contents
+    assert len(hashed) == 5  # the key, and the writeable copy's bytes
+
+
 def test_gram_tables_give_the_direct_product(base_basis):
     rng = np.random.default_rng(0)
     phi = base_basis.evecs
