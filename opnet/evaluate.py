@@ -14,7 +14,9 @@ reconstructed vertices. Three kinds are provided:
 
 Test sets (:data:`TEST_SETS`): ``"eval_subset"`` (the paper's protocol: 5 shapes per held-out
 sequence chosen by furthest-point sampling, 50 in all), all of ``"test"`` (10 held-out sequences), and
-``"test_subjects"`` (every shape of unseen body types).
+``"test_subjects"`` (every shape of unseen body types). A collection of several species (the animals,
+``meta["species"]``) also has ``"unseen_species"``: the shapes of ``test_subjects`` whose body is one whole species
+(no blend), one never seen in training (:data:`SPECIES_SETS`).
 
 Metrics per shape (:func:`shape_errors`): ``d_R`` (eq. 9, length², reported ×10⁻⁴ like the paper),
 ``d_V`` (relative volume error) and ``d_E`` (mean relative edge-length error); rows hold their means and
@@ -37,6 +39,7 @@ from .shape_difference import KINDS
 
 __all__ = [
     "TEST_SETS",
+    "SPECIES_SETS",
     "Method",
     "decode",
     "test_set_indices",
@@ -61,8 +64,10 @@ __all__ = [
 
 #: The test sets that :func:`evaluate` reports by default (this module's docstring says what each holds).
 TEST_SETS = ("eval_subset", "test", "test_subjects")
+#: The test sets of a collection of several species: also the species held out whole (``"unseen_species"``).
+SPECIES_SETS = (*TEST_SETS, "unseen_species")
 #: Every set :func:`evaluate` can report on: the test sets, and ``"val"`` (where experiments are chosen).
-SETS = ("val", *TEST_SETS)
+SETS = ("val", *SPECIES_SETS)
 _LABELS = {KINDS: "Int+Ext", ("area", "conformal"): "Int", ("extrinsic",): "Ext"}
 _SHORT = {"area": "Area", "conformal": "Conf", "extrinsic": "Ext"}
 
@@ -94,9 +99,20 @@ def channel_label(channels) -> str:
 
 
 def test_set_indices(collection, test_set: str) -> np.ndarray:
-    """Shape indices of a set: ``"eval_subset"`` (the 50-shape subset), ``"test"``, ``"test_subjects"`` or ``"val"``."""
+    """Shape indices of a set: ``"eval_subset"`` (the 50-shape subset), ``"test"``, ``"test_subjects"``, ``"val"``,
+    or, for a collection of several species, ``"unseen_species"``.
+    """
     if test_set == "eval_subset":
         return np.asarray(collection.eval_subset)
+    if test_set == "unseen_species":
+        species = collection.meta.get("species")
+        if not species:
+            raise ValueError(
+                f"test set 'unseen_species' needs a collection of several species (meta['species']: the animals); "
+                f"{getattr(collection, 'name', 'this collection')!r} has none: use one of {TEST_SETS}."
+            )
+        held = collection.indices("test_subjects")
+        return held[np.isin(collection.subject[held], list(species))]
     if test_set in ("test", "test_subjects", "val"):
         return collection.indices(test_set)
     raise ValueError(f"unknown test set {test_set!r}; use one of {SETS}.")

@@ -48,6 +48,7 @@ from . import __version__
 from ._checks import check_int
 from ._extras import require
 from .evaluate import (
+    SPECIES_SETS,
     TEST_SETS,
     base_shape_method,
     evaluate,
@@ -341,7 +342,8 @@ def reproduce(
         tags.append(dict(baseline="funcchar"))
     for m, tag in zip(baselines + matching + funcchar, tags, strict=True):
         m.info = dict(table="table1", **tag, epochs=None, train_seconds=None, device=str(device))
-    rows = evaluate(coll, methods + baselines, TEST_SETS, extra=info)
+    test_sets = SPECIES_SETS if coll.meta.get("species") else TEST_SETS  # the animals: also the unseen species
+    rows = evaluate(coll, methods + baselines, test_sets, extra=info)
     rows += evaluate(comp, comp_methods, TEST_SETS, extra=info) if maps else []
     rows += evaluate(coll, matching, REFINE_SETS, extra=info)
     rows += evaluate(with_offsets, funcchar, REFINE_SETS, extra=info) if funcchar else []

@@ -319,3 +319,24 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
         reproduce.discretisation_figure(comp, {"net": None}, shapes=0)
     with pytest.raises(ValueError, match="maps='computed'"):
         reproduce.discretisation_figure(few, {"net": None})
+
+
+def test_unseen_species_are_the_whole_species_held_out_and_only_species_collections_have_them(coll):
+    """``unseen_species``: the ``test_subjects`` shapes whose body is a species of ``meta["species"]`` (not a blend);
+    a collection without species names the sets it has."""
+    import dataclasses
+
+    held = coll.indices("test_subjects")
+    subjects = coll.subject.astype("<U20")  # room for the names below
+    subjects[held[::2]] = "wolf"  # half the held-out bodies are a whole species, the rest blends with it
+    subjects[held[1::2]] = "wolf50+fox50"
+    subjects[coll.indices("train")[:3]] = "fox"  # a seen species: never in the set
+    animals = dataclasses.replace(coll, subject=subjects, meta=dict(coll.meta, species=["fox", "wolf"]))
+    np.testing.assert_array_equal(evaluate.test_set_indices(animals, "unseen_species"), held[::2])
+    rows = evaluate.evaluate(animals, [evaluate.base_shape_method(animals)], ("test_subjects", "unseen_species"))
+    assert [(r["split"], r["n_shapes"]) for r in rows] == [
+        ("test_subjects", len(held)),
+        ("unseen_species", len(held[::2])),
+    ]
+    with pytest.raises(ValueError, match="several species.*eval_subset"):
+        evaluate.test_set_indices(coll, "unseen_species")

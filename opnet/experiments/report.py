@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .._files import atomic_write
-from ..evaluate import TEST_SETS, channel_label, channel_names
+from ..evaluate import SPECIES_SETS, channel_label, channel_names
 from ..shape_difference import KINDS
 from .paper import PAPER_ABLATION, PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS, PAPER_TABLE1
 from .spec import RunSpec
@@ -51,7 +51,12 @@ __all__ = [
     "PAPER_TABLE1_ROWS",
 ]
 
-_SPLIT_NAMES = {"eval_subset": "furthest-point subset", "test": "test", "test_subjects": "unseen subjects"}
+_SPLIT_NAMES = {
+    "eval_subset": "furthest-point subset",
+    "test": "test",
+    "test_subjects": "unseen subjects",
+    "unseen_species": "unseen species",
+}
 _KIND_NAMES = {
     "analogy": {"pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)", "body": "body transfer (a,p):(b,p)::(a,q):(b,q)"},
     "interpolation": {"pose": "one subject, pose to pose", "body": "one pose, subject to subject"},
@@ -352,7 +357,8 @@ def context_markdown(context: dict) -> list[str]:
             if _is_humans(context)
             else "The shapes: the animals of `opnet.data.animals` (Quaternius' quadrupeds on the horse's template, "
             "species and blends between them; `test_subjects` holds held-out blends and the wolf, a species never "
-            "seen in training). The paper trains on SMAL animals but publishes no numbers for them."
+            'seen in training; "unseen species" is the wolf alone). The paper trains on SMAL animals but publishes '
+            "no numbers for them."
         ),
     ]
 
@@ -367,7 +373,7 @@ def table1_markdown(rows: list[dict], paper: bool = True) -> list[str]:
         return []
     lines = ["d_R ×10⁻⁴ (m²), mean (median in brackets).", ""]
     keys = list(dict.fromkeys(row_key(r) for r in t1))
-    splits = [s for s in TEST_SETS if any(r["split"] == s for r in t1)]
+    splits = [s for s in SPECIES_SETS if any(r["split"] == s for r in t1)]
     head = (
         "| method | "
         + " | ".join(f"{_SPLIT_NAMES[s]}: d_R | d_V | d_E" for s in splits)
@@ -629,7 +635,7 @@ def targets(t1: list[dict], paper: bool = True) -> list[str]:
         return None if r is None else r.get(key)
 
     lines = []
-    for split in ("test", "test_subjects", "eval_subset"):
+    for split in ("test", "test_subjects", "unseen_species", "eval_subset"):
         ours, nn = get(_PAPER, split), get(_NN, split)
         if ours is not None and nn is not None:
             ratio = nn / ours
