@@ -72,11 +72,12 @@ docs: $(STAMP)
 	$(PY) -m sphinx -W --keep-going -n -b html docs build/docs
 	@echo "documentation: build/docs/index.html"
 
-# COLLECTION=animals: the animals (build/reproduce-animals-$(PRESET); shipped in results/animals-default)
+# COLLECTION=animals: the animals (build/reproduce-animals-$(PRESET); shipped in results/animals-default);
+# ARGS: more options of `python -m opnet reproduce` (e.g. ARGS="--no-ablation --no-refine")
 COLLECTION ?= humans
 PREFIX := $(if $(filter humans,$(COLLECTION)),,$(COLLECTION)-)
 reproduce: $(STAMP)
-	$(PY) -m opnet reproduce --preset $(PRESET) --collection $(COLLECTION) --out build/reproduce-$(PREFIX)$(PRESET)
+	$(PY) -m opnet reproduce --preset $(PRESET) --collection $(COLLECTION) --out build/reproduce-$(PREFIX)$(PRESET) $(ARGS)
 
 SHIPPED := opnet/experiments/results/$(PREFIX)default
 ship-results:

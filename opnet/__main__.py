@@ -224,12 +224,12 @@ def _run(args) -> int:
 
     if args.command == "evaluate":
         from .evaluate import (
-            TEST_SETS,
             base_shape_method,
             evaluate,
             nearest_neighbour_method,
             operatornet_method,
             pointnet_method,
+            test_sets_for,
         )
         from .train import checkpoint_path, model_from_checkpoint, read_checkpoint, resolve_device
 
@@ -262,7 +262,7 @@ def _run(args) -> int:
             methods = [operatornet_method(net, coll), nearest_neighbour_method(coll, net.channels)]
         else:  # the PointNet autoencoder
             methods = [pointnet_method(net, coll), nearest_neighbour_method(coll)]
-        rows = evaluate(coll, methods + [base_shape_method(coll)], TEST_SETS)
+        rows = evaluate(coll, methods + [base_shape_method(coll)], test_sets_for(coll))
         print(_table(rows))
         if args.json:
             with open(args.json, "w") as f:

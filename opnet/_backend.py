@@ -105,15 +105,15 @@ def weighted_gram(phi, weights):
             upper += flat[:, s : s + step] @ _gram_table(phi[s : s + step], iu, ju)
     # both triangles in one gather (twice as fast as two scattered writes)
     full = _memo.by_content(f"symmetric positions {k}", (), lambda: _symmetric_positions(k))
-    return np.take(upper, full, axis=1).reshape(*weights.shape[:-1], k, k)
+    return np.take(upper, full, axis=1).astype(np.float64, copy=False).reshape(*weights.shape[:-1], k, k)
 
 
 def _symmetric_positions(k: int) -> np.ndarray:
     """``(k²,)``: the column of ``triu_indices(k)`` that holds entry ``(i, j)`` of a symmetric matrix, row by row."""
     iu, ju = np.triu_indices(k)
-    pos = np.empty((k, k), dtype=np.intp)
-    pos[iu, ju] = pos[ju, iu] = np.arange(len(iu))
-    return pos.ravel()
+    pos = np.empty(k * k, dtype=np.intp)
+    pos[iu * k + ju] = pos[ju * k + iu] = np.arange(len(iu))
+    return pos
 
 
 def _gram_table(phi, iu, ju):

@@ -35,13 +35,18 @@ def _digest(arrays) -> bytes:
 
 
 def _array_digest(a) -> bytes:
-    """The digest of one array's shape, dtype and bytes; a kept value (read-only, :func:`_freeze`) is hashed once."""
+    """The digest of one array's shape, dtype and bytes; a kept value (read-only, :func:`_freeze`) is hashed once,
+    the first time it is a key.
+    """
     known = _FROZEN.get(id(a))
-    if known is not None and known[0]() is a and not a.flags.writeable:
+    kept = known is not None and known[0]() is a and not a.flags.writeable
+    if kept and known[1] is not None:
         return known[1]
     c = np.ascontiguousarray(a)
     h = hashlib.blake2b(f"{c.shape}{c.dtype.str};".encode(), digest_size=20)
     h.update(c.data)
+    if kept:
+        _FROZEN[id(a)] = (known[0], h.digest())
     return h.digest()
 
 
@@ -58,10 +63,11 @@ def _freeze(value):
         return tuple(map(_freeze, value))
     for a in (value.data, value.indices, value.indptr) if sp.issparse(value) else (value,):
         a.setflags(write=False)
-    if isinstance(value, np.ndarray):  # a kept array may be a key of another value: its digest computed once
-        digest = _array_digest(value)
-        with _LOCK:
-            _FROZEN[id(value)] = (weakref.ref(value, lambda _, i=id(value): _FROZEN.pop(i, None)), digest)
+    # a kept array that owns its bytes (no writeable array sees them) may key another value: its digest is taken
+    # once, when first needed. The callback runs before the array's memory is freed, so a reused id is never
+    # mistaken for it; it takes no lock (an eviction under _LOCK may run it).
+    if isinstance(value, np.ndarray) and value.flags.owndata:
+        _FROZEN[id(value)] = (weakref.ref(value, lambda _, i=id(value): _FROZEN.pop(i, None)), None)
     return value
 
 

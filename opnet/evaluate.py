@@ -40,6 +40,7 @@ from .shape_difference import KINDS
 __all__ = [
     "TEST_SETS",
     "SPECIES_SETS",
+    "test_sets_for",
     "Method",
     "decode",
     "test_set_indices",
@@ -96,6 +97,13 @@ def channel_label(channels) -> str:
             return _LABELS[key]
         return next(name for name, kinds in CHANNEL_SETS.items() if set(kinds) == set(key))
     return "+".join(_SHORT.get(c, c) for c in channels)
+
+
+def test_sets_for(collection) -> tuple:
+    """The test sets to report for ``collection``: :data:`SPECIES_SETS` for one of several species (the animals),
+    else :data:`TEST_SETS`.
+    """
+    return SPECIES_SETS if collection.meta.get("species") else TEST_SETS
 
 
 def test_set_indices(collection, test_set: str) -> np.ndarray:

@@ -48,7 +48,6 @@ from . import __version__
 from ._checks import check_int
 from ._extras import require
 from .evaluate import (
-    SPECIES_SETS,
     TEST_SETS,
     base_shape_method,
     evaluate,
@@ -59,6 +58,7 @@ from .evaluate import (
     pointnet_method,
     refined_method,
     test_set_indices,
+    test_sets_for,
 )
 from .experiments import figures as _figures
 from .experiments.figures import (
@@ -342,8 +342,7 @@ def reproduce(
         tags.append(dict(baseline="funcchar"))
     for m, tag in zip(baselines + matching + funcchar, tags, strict=True):
         m.info = dict(table="table1", **tag, epochs=None, train_seconds=None, device=str(device))
-    test_sets = SPECIES_SETS if coll.meta.get("species") else TEST_SETS  # the animals: also the unseen species
-    rows = evaluate(coll, methods + baselines, test_sets, extra=info)
+    rows = evaluate(coll, methods + baselines, test_sets_for(coll), extra=info)  # animals: also the unseen species
     rows += evaluate(comp, comp_methods, TEST_SETS, extra=info) if maps else []
     rows += evaluate(coll, matching, REFINE_SETS, extra=info)
     rows += evaluate(with_offsets, funcchar, REFINE_SETS, extra=info) if funcchar else []

@@ -43,6 +43,10 @@ def test_what_is_not_shipped_is_named():
         shipped.shipped_results("paper")
     with pytest.raises(FileNotFoundError, match="ablation"):  # the message lists the figures there are
         shipped.shipped_figure("no_such_figure")
+    with pytest.raises(ValueError, match="collection must be one of"):
+        shipped.shipped_results("default", "cats")
+    with pytest.raises(ValueError, match="collection="):  # a folder's name is not a preset
+        shipped.shipped_results("animals-default")
 
 
 def test_the_package_data_covers_every_shipped_file():

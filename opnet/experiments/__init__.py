@@ -11,7 +11,8 @@ ablation over any channels (:func:`~opnet.experiments.runner.ablation`).
     table = opnet.ablation(coll, channel_sets=[["area"], ["area", MyIP()]], depths=[1, 2], epochs=20)
 
 :mod:`opnet.reproduce` declares the paper's networks this way and runs them with the same runner;
-:func:`~opnet.experiments.shipped.shipped_results` reads the `default` reproduction that ships with opnet.
+:func:`~opnet.experiments.shipped.shipped_results` reads the `default` reproductions that ship with opnet (the
+humans', and the animals' with ``collection="animals"``).
 """
 
 from .paper import PAPER_ABLATION, PAPER_TABLE1

@@ -19,12 +19,24 @@ __all__ = ["SHIPPED_DIR", "shipped_presets", "shipped_results", "shipped_figure"
 SHIPPED_DIR = Path(__file__).resolve().parent / "results"
 
 
+#: The collections whose reproductions can ship (``python -m opnet reproduce --collection``).
+COLLECTIONS = ("humans", "animals")
+
+
 def _folder_name(preset: str, collection: str) -> str:
+    if collection not in COLLECTIONS:
+        raise ValueError(f"collection must be one of {COLLECTIONS}, got {collection!r}.")
+    if not isinstance(preset, str) or "-" in preset:
+        raise ValueError(
+            f"preset must be a preset's name such as 'default', got {preset!r}; give the collection as "
+            "collection=, e.g. shipped_results('default', 'animals')."
+        )
     return preset if collection == "humans" else f"{collection}-{preset}"
 
 
 def shipped_presets(collection: str = "humans") -> list[str]:
     """The presets whose reproduction of ``collection`` (``"humans"`` or ``"animals"``) is shipped."""
+    _folder_name("default", collection)  # refuses an unknown collection
     if not SHIPPED_DIR.is_dir():
         return []
     shipped = (p.name for p in SHIPPED_DIR.iterdir() if (p / "results.json").is_file())
@@ -57,7 +69,9 @@ def shipped_results(preset: str = "default", collection: str = "humans") -> tupl
 
 
 def shipped_figures(preset: str = "default", collection: str = "humans") -> list[str]:
-    """The names of the shipped reproduction's figures at ``preset`` (``"training_curves"``, ``"ablation"`` ...)."""
+    """The names of the shipped reproduction's figures of ``collection`` at ``preset`` (``"training_curves"``,
+    ``"ablation"`` ...).
+    """
     return sorted(p.stem for p in (_folder(preset, collection) / "figures").glob("*.png"))
 
 
