@@ -185,8 +185,12 @@ def test_explorers_follow_their_controls_in_jupyterlab(browser, lab, tmp_path):
     running = page.locator(".jp-InputPrompt", has_text="[*]")  # cells queued or running
     deadline = time.monotonic() + RUN_ALL_S
 
-    def done() -> bool:  # every cell has run, and both explorers show a picture
-        rendered = images.count() == 2 and all(images.nth(i).evaluate("i => i.naturalWidth > 0") for i in range(2))
+    shown = sum("widgets.show(" in "".join(c["source"]) for c in json.loads(NOTEBOOK.read_text())["cells"])
+
+    def done() -> bool:  # every cell has run, and every explorer shows a picture
+        rendered = images.count() == shown and all(
+            images.nth(i).evaluate("i => i.naturalWidth > 0") for i in range(shown)
+        )
         return rendered and running.count() == 0
 
     while not done():
@@ -230,6 +234,9 @@ def test_explorers_follow_their_controls_in_jupyterlab(browser, lab, tmp_path):
 
     b_pose = analogy.locator(".widget-dropdown", has_text="B pose").locator("select")
     picture_changes(analogy, another_option(b_pose), "analogy-dropdown")
+    for k in range(2, shown):  # the animals' analogy explorer (section 6): another species as B
+        b_subject = explorers.nth(k).locator(".widget-dropdown", has_text="B subject").locator("select")
+        picture_changes(explorers.nth(k), another_option(b_subject), f"explorer-{k}-dropdown")
     page.screenshot(path=tmp_path / "lab.png", full_page=True)
     assert not errors, errors
     page.close()
