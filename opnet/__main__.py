@@ -38,6 +38,13 @@ def _parser() -> argparse.ArgumentParser:
     )
     t.add_argument("--resolution", default=None, help="humans only: 1k (default), 2k or 5k vertices")
     t.add_argument("--data-seed", type=int, default=0, help="seed of the generated collection (default 0)")
+    t.add_argument(
+        "--bodies",
+        default="subject",
+        choices=["subject", "sequence", "shape", "mixed"],
+        help="generated humans, heads, hands: a body per training subject (default), or one of its own for each "
+        "training sequence, each training shape, or every other training shape (mixed); the same shapes held out",
+    )
     add_arguments(t)  # the hyper-parameters: one option per field of opnet.train.TrainConfig
     t.add_argument("--run-dir", required=True, help="folder for config.json, latest.pt, best.pt, history.json")
     t.add_argument("--restart", action="store_true", help="replace the run in --run-dir instead of resuming it")
@@ -104,6 +111,11 @@ def _parser() -> argparse.ArgumentParser:
         help="skip the computed-map rows (Table 1's Comp networks, other triangulations; maps take "
         "about 0.6 s per shape and core; humans only)",
     )
+    r.add_argument(
+        "--no-bodies",
+        action="store_true",
+        help="skip the rows of our variant trained with more distinct bodies (reproduce.MORE_BODIES; humans only)",
+    )
     r.add_argument("--data-root", default=None, help="where collections are cached")
     return p
 
@@ -157,7 +169,12 @@ def _collection(args):
             f"{args.collection!r}"
         )
     return load_collection(
-        args.collection, args.preset, args.data_root, resolution=args.resolution, seed=args.data_seed
+        args.collection,
+        args.preset,
+        args.data_root,
+        resolution=args.resolution,
+        seed=args.data_seed,
+        bodies=getattr(args, "bodies", "subject"),
     )
 
 
@@ -280,6 +297,7 @@ def _run(args) -> int:
         refine=not args.no_refine,
         applications=not args.no_applications,
         maps=False if args.no_maps else None,
+        bodies=False if args.no_bodies else None,
         collection=args.collection,
         data_root=args.data_root,
         progress=True,

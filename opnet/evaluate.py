@@ -56,6 +56,7 @@ __all__ = [
     "base_shape_method",
     "geometric_method",
     "refined_method",
+    "ensemble_method",
     "shape_errors",
     "summarize",
     "vertex_errors",
@@ -321,6 +322,32 @@ def refined_method(
 
     out = Method(name or f"{method.name} + refinement", run, channels, method.depth, max_shapes=max_shapes)
     return out
+
+
+def ensemble_method(methods, name: str | None = None) -> Method:
+    """The mean of several methods' reconstructions of the same collection (e.g. networks trained with other seeds or
+    on other bodies), each first moved rigidly onto the first one's (Kabsch: the loss, eq. 9, leaves each network's
+    placement free). Its rows carry the first method's channels and depth.
+
+    Parameters
+    ----------
+    methods : sequence of Method
+        At least two, reconstructing the same collection's shapes (``(N, n, 3)`` each).
+    name : str, optional
+        Default ``"Ensemble of <count>"``.
+    """
+    from .metrics import rigid_align
+
+    methods = list(methods)
+    if len(methods) < 2 or not all(isinstance(m, Method) for m in methods):
+        raise ValueError(f"an ensemble needs two or more Method objects, got {[type(m).__name__ for m in methods]}.")
+
+    def run(idx):
+        first = methods[0].reconstruct(idx)
+        return np.mean([first, *(rigid_align(m.reconstruct(idx), first) for m in methods[1:])], axis=0)
+
+    first = methods[0]
+    return Method(name or f"Ensemble of {len(methods)}", run, first.channels, first.depth)
 
 
 def shape_errors(gt, recon, faces, *, batch_size: int = 256) -> dict:

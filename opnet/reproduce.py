@@ -113,6 +113,10 @@ __all__ = [
     "OURS",
     "COMP",
     "COMP_RESOLUTION",
+    "COMP_OPTIONS",
+    "MORE_BODIES",
+    "bodies_specs",
+    "bodies_networks",
     "DISCRETISATIONS",
     "DISCRETISATION_NETWORKS",
     "POINTNET",
@@ -196,10 +200,20 @@ FUNCCHAR = ("area", "conformal", "offset_area", "offset_conformal")
 COMP = {"OperatorNet (Comp)(Int+Ext)": KINDS, "OperatorNet (Comp)(Ext)": ("extrinsic",)}
 #: The mesh (:data:`opnet.data.humans.RESOLUTIONS`) whose computed maps the "Comp" rows use.
 COMP_RESOLUTION = "2k"
+#: Rows beside Table 1's "Comp" rows, for other triangulations (the docs' results page, "Generalisation"): networks
+#: trained on the same computed-map operators with options of :func:`opnet.train.fit` (here Gaussian noise on the
+#: training operators, a model of a map's error), chosen on ``val`` by ``benchmarks/generalisation.py``: name →
+#: (channels, options). They are decoded in the different-discretisation rows too.
+COMP_OPTIONS = {"OperatorNet (Comp)(Ext), operator noise": (("extrinsic",), {"operator_noise": 1.0})}
+#: Rows beside Table 1 for unseen bodies (the docs' results page, "Generalisation"): this project's variant trained on
+#: the collection with more distinct bodies among its training shapes (:func:`opnet.data.load_collection`'s
+#: ``bodies``; the held-out shapes are the same), chosen on the validation bodies by ``benchmarks/generalisation.py``:
+#: name → ``bodies``.
+MORE_BODIES = {"OperatorNet ours, a body per shape (Int+Ext)": "shape"}
 #: The different-discretisation rows: test shapes on these meshes, mapped onto the 1k base by these maps.
 DISCRETISATIONS = (("2k", "true"), ("2k", "computed"), ("5k", "true"), ("5k", "computed"))
-#: The networks that decode them (Table 1's and :data:`COMP`'s names).
-DISCRETISATION_NETWORKS = ("OperatorNet (Int+Ext)", "OperatorNet (Ext)", *COMP)
+#: The networks that decode them (Table 1's, :data:`COMP`'s and :data:`COMP_OPTIONS`' names).
+DISCRETISATION_NETWORKS = ("OperatorNet (Int+Ext)", "OperatorNet (Ext)", *COMP, *COMP_OPTIONS)
 
 #: The generated collections :func:`reproduce` runs on.
 COLLECTIONS = ("humans", "animals")
@@ -236,6 +250,7 @@ def reproduce(
     refine: bool = True,
     applications: bool = True,
     maps: bool | None = None,
+    bodies: bool | None = None,
     collection: str = "humans",
     budget: Budget | None = None,
     data_root=None,
@@ -261,6 +276,9 @@ def reproduce(
         (:func:`comp_networks`; computing the maps of the whole collection takes about 0.6 s per shape and core, done
         once and cached beside the collection) and the different-discretisation rows (:func:`discretisation_rows`,
         ``budget.discretisation_shapes`` test shapes).
+    bodies : also the :data:`MORE_BODIES` rows (generated humans, heads, hands; ``None``, the default: for the humans):
+        this project's variant trained with more distinct bodies among the training shapes (:func:`bodies_networks`),
+        evaluated like Table 1's networks (and refined with them, with ``refine``).
     collection : one of :data:`COLLECTIONS`: ``"humans"`` (the paper's Table 1 and its numbers beside ours) or
         ``"animals"`` (:mod:`opnet.data.animals`: the same networks and baselines; the analogies transfer pose and
         animal type, the interpolations go between species; the paper gives no numbers to set beside them).
@@ -285,6 +303,9 @@ def reproduce(
             "maps=False (the command line's --no-maps)."
         )
     maps = collection == "humans" if maps is None else maps
+    if bodies and collection == "animals":
+        raise ValueError("the animals' bodies are blends of their species, not drawn: pass bodies=False (--no-bodies).")
+    bodies = collection == "humans" if bodies is None else bodies
     budget = budget or BUDGETS[preset]
     out = Path(out if out is not None else default_out(preset, collection))
     if out.exists() and not out.is_dir():
@@ -302,7 +323,8 @@ def reproduce(
         total=len(TABLE1)
         + len(OURS)
         + bool(applications)
-        + (len(COMP) if maps else 0)
+        + (len(COMP) + len(COMP_OPTIONS) if maps else 0)
+        + (len(MORE_BODIES) if bodies else 0)
         + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0),
         desc="reproduce",
         unit="network",
@@ -315,6 +337,14 @@ def reproduce(
     specs = _declared_specs(budget)
     methods = [operatornet_method(nets[name], coll, name) for name in (*TABLE1, *OURS)]
     methods += [pointnet_method(nets[POINTNET], coll, POINTNET)] if applications else []
+    if bodies:
+        more, more_histories, more_devices = bodies_networks(
+            coll, out, budget, device=device, bar=runs, progress=progress, data_root=data_root
+        )
+        nets.update(more)
+        histories.update(more_histories)
+        devices.update(more_devices)
+        methods += [operatornet_method(net, coll, name) for name, net in more.items()]
     for m in methods:
         m.info = dict(table="table1", **specs[m.name].fields(), **devices[m.name])
     if maps:
@@ -428,10 +458,21 @@ def funcchar_method(coll, budget: Budget, *, device="cpu"):
     )
 
 
-def spec(table: str, budget: Budget, channels=KINDS, depth: int = 1, variant: str = "paper", *, epochs=None, name=None):
+def spec(
+    table: str,
+    budget: Budget,
+    channels=KINDS,
+    depth: int = 1,
+    variant: str = "paper",
+    *,
+    epochs=None,
+    name=None,
+    options=None,
+):
     """The declared run (:class:`opnet.experiments.RunSpec`) of one network of the reproduction: ``table`` is its
-    group (``"table1"``, ``"comp"``, ``"ablation"``), ``variant`` ``"paper"``, ``"ours"`` or ``"pointnet"`` (the
-    PointNet autoencoder: ``budget.pointnet_epochs``); the budget's batch size, learning rate and width.
+    group (``"table1"``, ``"comp"``, ``"ablation"``...), ``variant`` ``"paper"``, ``"ours"`` or ``"pointnet"`` (the
+    PointNet autoencoder: ``budget.pointnet_epochs``); the budget's batch size, learning rate and width; ``options``:
+    other options of :func:`opnet.train.fit`.
     """
     from .experiments import RunSpec
 
@@ -447,14 +488,15 @@ def spec(table: str, budget: Budget, channels=KINDS, depth: int = 1, variant: st
         hidden=budget.hidden,
         group=table,
         name=name,
+        options=dict(options or {}),
     )
 
 
 def _declared_specs(budget: Budget) -> dict:
     """Name → declared run (:class:`opnet.experiments.RunSpec`) of Table 1's networks (:func:`table1_specs`,
-    :func:`comp_specs`).
+    :func:`comp_specs`, :func:`bodies_specs`).
     """
-    return {s.name: s for s in (*table1_specs(budget), *comp_specs(budget))}
+    return {s.name: s for s in (*table1_specs(budget), *comp_specs(budget), *bodies_specs(budget))}
 
 
 def _train(coll, out, spec, *, device, progress, bar=None):
@@ -525,8 +567,50 @@ def comp_networks(coll, out, budget: Budget, *, device="cpu", progress=None, bar
 
 
 def comp_specs(budget: Budget) -> list:
-    """Table 1's "Comp" declared runs (:data:`COMP`, group ``"comp"``), each named by its Table 1 row."""
-    return [spec("comp", budget, channels, name=name) for name, channels in COMP.items()]
+    """Table 1's "Comp" declared runs (:data:`COMP`, group ``"comp"``), each named by its Table 1 row, and the rows
+    beside them (:data:`COMP_OPTIONS`, group ``"comp-options"``).
+    """
+    specs = [spec("comp", budget, channels, name=name) for name, channels in COMP.items()]
+    return specs + [
+        spec("comp-options", budget, channels, name=name, options=options)
+        for name, (channels, options) in COMP_OPTIONS.items()
+    ]
+
+
+def bodies_specs(budget: Budget) -> list:
+    """The declared runs of :data:`MORE_BODIES` (this project's variant, group ``"bodies-<bodies>"``: trained on
+    ``load_collection(..., bodies=<bodies>)``), each named by its row.
+    """
+    return [spec(f"bodies-{kind}", budget, KINDS, variant="ours", name=name) for name, kind in MORE_BODIES.items()]
+
+
+def bodies_networks(coll, out, budget: Budget, *, device="cpu", progress=None, bar=None, data_root=None) -> tuple:
+    """The :data:`MORE_BODIES` networks, trained in ``out/runs/bodies-*`` (or loaded when trained there), each on the
+    generated collection ``coll`` with other bodies among its training shapes (``bodies=``; the held-out shapes are
+    ``coll``'s, checked); like :func:`table1_networks`, dicts name → network, name → history, name → run info (with
+    ``bodies``).
+    """
+    from .data import load_collection
+
+    meta = coll.meta
+    nets, histories, info = {}, {}, {}
+    for s in bodies_specs(budget):
+        kind = MORE_BODIES[s.name]
+        more = load_collection(
+            meta["name"],
+            meta["preset"],
+            data_root,
+            resolution=meta["resolution"],
+            seed=meta["seed"],
+            bodies=kind,
+            progress=progress,
+        )
+        held = coll.split != "train"
+        if not (np.array_equal(more.split, coll.split) and np.array_equal(more.vertices[held], coll.vertices[held])):
+            raise ValueError(f"the collection with bodies={kind!r} does not hold {coll!r}'s held-out shapes.")
+        nets[s.name], histories[s.name], info[s.name] = _train(more, out, s, device=device, progress=progress, bar=bar)
+        info[s.name] = dict(info[s.name], bodies=kind)
+    return nets, histories, info
 
 
 def discretisation_rows(

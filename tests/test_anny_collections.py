@@ -119,3 +119,39 @@ def test_part_collections(root, quick_collection, name, n_vertices, motions):
     assert max(drift) > 1.1 * min(drift)  # the peak of the expression or gesture differs from its neutral frame
     with pytest.raises(ValueError, match="resolutions"):
         opnet.data.load_collection(name, "quick", root, resolution="2k")
+
+
+@pytest.mark.parametrize("bodies", ["sequence", "shape", "mixed"])
+def test_more_bodies_same_shapes_held_out(humans, root, bodies):
+    more = opnet.data.load_collection("humans", "quick", root, bodies=bodies, progress=False)
+    assert len(more) == len(humans) and (more.split == humans.split).all()
+    held = humans.split != "train"  # val and the test sets: the same shapes, bit for bit
+    assert np.array_equal(more.vertices[held], humans.vertices[held])
+    assert np.array_equal(more.operators[held], humans.operators[held])
+    assert np.array_equal(more.eval_subset, humans.eval_subset)
+    train = humans.split == "train"
+    np.testing.assert_array_equal(more.params["controls"], humans.params["controls"])  # the same poses
+    kept = np.isclose(more.params["phenotypes"], humans.params["phenotypes"]).all(1)
+    new = np.flatnonzero(train)[1::2] if bodies == "mixed" else np.flatnonzero(train)
+    assert not kept[new].any() and kept[~np.isin(np.arange(len(humans)), new)].all()
+    sequences = len(set(humans.subcollection[train]))
+    expected = {"sequence": sequences, "shape": int(train.sum()), "mixed": len(new) + len(set(humans.subject[train]))}
+    assert len(set(more.subject[train])) == expected[bodies] > len(set(humans.subject[train]))
+    subs = {
+        "sequence": sequences,
+        "shape": int(train.sum()),
+        "mixed": len(new) + len(set(humans.subcollection[new - 1])),
+    }
+    assert len(set(more.subcollection[train])) == subs[bodies]  # a sub-collection is one body's motion
+    # each training body's shapes share one phenotype; the file is another one than the default's
+    for s in set(more.subject[train]):
+        assert len(np.unique(more.params["phenotypes"][more.subject == s], axis=0)) == 1
+    assert more.meta["bodies"] == bodies and "bodies" not in humans.meta
+    assert (root / (opnet.data.generators.stem_name(more.meta) + ".json")).is_file()
+
+
+def test_bodies_refused(root):
+    with pytest.raises(ValueError, match="bodies must be one of"):
+        opnet.data.load_collection("humans", "quick", root, bodies="person")
+    with pytest.raises(ValueError, match="animals' bodies are blends"):
+        opnet.data.load_collection("animals", "quick", root, bodies="shape")

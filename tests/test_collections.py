@@ -365,3 +365,24 @@ def test_the_animals_bodies_have_distinct_names_and_hold_out_the_unseen_species(
         assert np.allclose(weights.sum(1), 1) and ((weights > 0).sum(1) <= 2).all()
         with_unseen = np.flatnonzero(weights[:, species.index(UNSEEN_SPECIES)] > 0)
         assert set(with_unseen) <= set(held) and len(held) == len(with_unseen) + p.test_blends
+
+
+def test_with_training_from_adds_training_shapes_only(coll):
+    other = coll.subset(np.arange(len(coll)))  # the same shapes, encoded otherwise
+    other.operators = other.operators * np.float32(1.01)
+    both = coll.with_training_from(other)
+    train, held = coll.indices("train"), coll.split != "train"
+    assert len(both) == len(coll) + len(train)
+    np.testing.assert_array_equal(both.indices("train"), np.r_[train, len(coll) + np.arange(len(train))])
+    np.testing.assert_array_equal(both.operators[len(coll) :], other.operators[train])
+    np.testing.assert_array_equal(both.vertices[len(coll) :], coll.vertices[train])
+    for split in ("val", "test", "test_subjects"):  # the held-out splits and the evaluation subset: coll's own
+        np.testing.assert_array_equal(both.indices(split), coll.indices(split))
+    np.testing.assert_array_equal(both.eval_subset, coll.eval_subset)
+    assert held.sum() == (both.split != "train").sum() and coll.with_training_from() is coll
+    smaller = coll.subset(train)
+    smaller.base_basis = coll.base_basis.truncate(10)  # another basis
+    with pytest.raises(ValueError, match="same base shape, basis size"):
+        coll.with_training_from(smaller)
+    with pytest.raises(TypeError, match="must be opnet.data.Collection"):
+        coll.with_training_from(coll.operators)

@@ -121,13 +121,12 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
     assert saved == json.loads(json.dumps(rows)) and context["preset"] == "quick" and context["wall_seconds"] > 0
     assert context["opnet_version"] == opnet.__version__ and len(context["date"]) == len("2026-12-02")
     headline = [line.split(" | ")[0].lstrip("| ") for line in headline_markdown(saved)[2:]]  # the README's rows
-    assert headline == [*reproduce.TABLE1, *reproduce.OURS, "Nearest neighbour (Int+Ext)", "Base shape"]
+    networks = [*reproduce.TABLE1, *reproduce.OURS, *reproduce.MORE_BODIES]
+    assert headline == [*networks, "Nearest neighbour (Int+Ext)", "Base shape"]
     assert reproduce.results_markdown(saved, context) == (tmp_path / "results.md").read_text()  # all it needs
     t1 = [r for r in saved if r["table"] == "table1"]
     assert {(r["method"], r["split"]) for r in t1} == {
-        (m, s)
-        for m in [*reproduce.TABLE1, *reproduce.OURS, "Nearest neighbour (Int+Ext)", "Base shape"]
-        for s in evaluate.TEST_SETS
+        (m, s) for m in [*networks, "Nearest neighbour (Int+Ext)", "Base shape"] for s in evaluate.TEST_SETS
     } | {
         (m, s)
         for m in [
@@ -135,11 +134,16 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
             "FuncChar (Int+Ext)",
             "OperatorNet (Int+Ext) + refinement",
             "OperatorNet ours (Int+Ext) + refinement",
+            *(f"{name} + refinement" for name in reproduce.MORE_BODIES),
         ]
         for s in reproduce.REFINE_SETS
     }
+    more = [r for r in t1 if r["method"] in reproduce.MORE_BODIES]  # our variant on more bodies: its rows say which
+    assert {r["bodies"] for r in more} == set(reproduce.MORE_BODIES.values()) and {r["group"] for r in more} == {
+        f"bodies-{kind}" for kind in reproduce.MORE_BODIES.values()
+    }
     refined = [r for r in t1 if r.get("refined") or r.get("baseline") in ("geometric", "funcchar")]
-    assert len(refined) == 8 and {tuple(r["channels"]) for r in refined if r.get("baseline") == "funcchar"} == {
+    assert len(refined) == 10 and {tuple(r["channels"]) for r in refined if r.get("baseline") == "funcchar"} == {
         reproduce.FUNCCHAR
     }
     assert all(r["n_shapes"] == 3 for r in refined)  # at most refine_shapes per test set
@@ -177,7 +181,7 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     # a second call trains nothing more: every run is finished
     mtimes = {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
-    assert len(mtimes) == 32
+    assert len(mtimes) == 33
     reproduce.reproduce(
         "quick", tmp_path, budget=budget, device="cpu", progress=False, figures=False, applications=False, maps=False
     )
@@ -204,7 +208,7 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
         return r["table"] == "ablation" or r.get("refined") or r.get("baseline") in ("geometric", "funcchar")
 
     kept = [r for r in merged if not_measured_again(r)]
-    assert kept == [r for r in saved if not_measured_again(r)] and len(kept) == 28 + 8  # as the second call wrote
+    assert kept == [r for r in saved if not_measured_again(r)] and len(kept) == 28 + 10  # as the second call wrote
     md = (tmp_path / "results.md").read_text()
     assert context["earlier"][0]["tables"] == ["ablation", "table1"] and "earlier call" in md
     assert [r["method"] for r in merged if r["table"] == "table1"][0] == "OperatorNet (Int+Ext)"  # kept in place
@@ -290,11 +294,17 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
         data_root=data,
     )
     comp = [r for r in rows if r["table"] == "table1" and "(Comp)" in r["method"]]
-    assert {(r["method"], r["split"]) for r in comp} == {(m, s) for m in reproduce.COMP for s in evaluate.TEST_SETS}
+    assert {(r["method"], r["split"]) for r in comp} == {
+        (m, s) for m in [*reproduce.COMP, *reproduce.COMP_OPTIONS] for s in evaluate.TEST_SETS
+    }
     comp = opnet.data.mapped_collection(few, "2k", root=data)  # cached by reproduce
     for short in ("A+E+C", "Ext"):  # the Comp networks were trained on it
         config = json.loads((tmp_path / "runs" / f"comp-{short}-d1" / "config.json").read_text())
         assert config["data"]["fingerprint"] == train.collection_fingerprint(comp, opnet.CHANNEL_SETS[short])
+    (spec,) = [s for s in reproduce.comp_specs(budget) if s.name in reproduce.COMP_OPTIONS]  # beside them, with noise
+    config = json.loads((tmp_path / "runs" / spec.run_name / "config.json").read_text())
+    assert config["train"]["operator_noise"] == reproduce.COMP_OPTIONS[spec.name][1]["operator_noise"] > 0
+    assert config["data"]["fingerprint"] == train.collection_fingerprint(comp, ("extrinsic",))
     assert len(list(data.glob("*computed2k*.json"))) == 1  # the 2k computed rows reuse it: no subset of their own
     disc = [r for r in rows if r["table"] == "discretisation"]
     encodings = [("1k", "exact"), *reproduce.DISCRETISATIONS]
@@ -340,3 +350,23 @@ def test_unseen_species_are_the_whole_species_held_out_and_only_species_collecti
     ]
     with pytest.raises(ValueError, match="several species.*eval_subset"):
         evaluate.test_set_indices(coll, "unseen_species")
+
+
+def test_ensemble_is_invariant_to_each_members_placement(coll):
+    from scipy.spatial.transform import Rotation
+
+    R = Rotation.from_rotvec([0.3, -1.0, 0.4]).as_matrix()
+    truth = evaluate.Method("truth", lambda idx: coll.vertices[idx].astype(np.float64))
+    moved = evaluate.Method("moved", lambda idx: coll.vertices[idx].astype(np.float64) @ R.T + [1.0, 2.0, 3.0])
+    shrunk = evaluate.Method("shrunk", lambda idx: 0.8 * coll.vertices[idx].astype(np.float64))
+    idx = np.arange(5)
+    np.testing.assert_allclose(
+        evaluate.ensemble_method([truth, moved]).reconstruct(idx), truth.reconstruct(idx), atol=1e-5
+    )
+    mean = evaluate.ensemble_method([truth, shrunk], name="mean")  # the average of what they say, once aligned
+    assert mean.name == "mean"
+    np.testing.assert_allclose(
+        mean.reconstruct(idx), opnet.metrics.rigid_align(0.9 * coll.vertices[idx], coll.vertices[idx]), atol=1e-4
+    )
+    with pytest.raises(ValueError, match="two or more"):
+        evaluate.ensemble_method([truth])

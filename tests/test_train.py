@@ -291,6 +291,24 @@ def test_onecycle_resume_is_exact(coll, tmp_path):
     assert all(torch.equal(a, b) for a, b in zip(_weights(full).values(), _weights(resumed).values()))
 
 
+def test_operator_noise_changes_training_and_resumes_exactly(coll, tmp_path):
+    _, plain = train.fit(coll, epochs=3, **FAST)
+    full, noisy = train.fit(coll, epochs=3, operator_noise=0.5, run_dir=tmp_path / "a", **FAST)
+    assert not _same_history(plain, noisy)  # the noise reaches the network
+    train.fit(coll, epochs=2, operator_noise=0.5, run_dir=tmp_path / "b", **FAST)
+    resumed, again = train.fit(coll, epochs=3, operator_noise=0.5, run_dir=tmp_path / "b", **FAST)
+    assert _same_history(noisy, again)  # each epoch's noise is a function of the seed and the epoch
+    assert all(torch.equal(a, b) for a, b in zip(_weights(full).values(), _weights(resumed).values()))
+    record = json.loads((tmp_path / "a" / "config.json").read_text())["train"]
+    assert record["operator_noise"] == 0.5
+    train.fit(coll, epochs=1, run_dir=tmp_path / "c", **FAST)
+    assert "operator_noise" not in json.loads((tmp_path / "c" / "config.json").read_text())["train"]  # older runs match
+    with pytest.raises(train.CheckpointError):
+        train.fit(coll, epochs=3, operator_noise=0.25, run_dir=tmp_path / "a", **FAST)
+    with pytest.raises(ValueError, match="operator_noise are OperatorNet's options"):
+        train.fit(coll, epochs=1, architecture="pointnet", operator_noise=0.5, progress=False)
+
+
 def test_runs_saved_before_the_variant_options_still_resume(coll, tmp_path):
     train.fit(coll, epochs=2, run_dir=tmp_path, **FAST)
     config = json.loads((tmp_path / "config.json").read_text())
@@ -352,10 +370,13 @@ def test_cli_train_and_evaluate_on_a_saved_collection(coll, tmp_path, cli):
 
 
 @pytest.mark.slow
-def test_ddp_with_two_processes_matches_one_process(coll, tmp_path, cli):
-    """torchrun --nproc_per_node 2 (gloo) gives the single-process result with the same global batch."""
+@pytest.mark.parametrize("options", [[], ["--operator-noise", "0.5"]])
+def test_ddp_with_two_processes_matches_one_process(coll, tmp_path, cli, options):
+    """torchrun --nproc_per_node 2 (gloo) gives the single-process result with the same global batch (with operator
+    noise too: the ranks split the global batch's noise).
+    """
     manifest = save_collection(coll, tmp_path / "data" / "tiny")
-    common = ["--collection", str(manifest), "--epochs", "3", "--hidden", "32", "--batch-size", "7"]
+    common = ["--collection", str(manifest), "--epochs", "3", "--hidden", "32", "--batch-size", "7", *options]
     single = cli("train", *common, "--run-dir", str(tmp_path / "one"))
     assert single.returncode == 0, single.stderr
     env = dict(os.environ, OMP_NUM_THREADS="1")

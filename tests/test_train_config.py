@@ -29,8 +29,18 @@ FLAGS = {  # the train options of the command line, as they were written by hand
     "n_points": "--points",
     "device": "--device",
     "checkpoint_every": "--checkpoint-every",
+    "operator_noise": "--operator-noise",
 }
-OTHERS = {"--collection", "--preset", "--resolution", "--data-seed", "--run-dir", "--restart", "--data-root"}
+OTHERS = {
+    "--collection",
+    "--preset",
+    "--resolution",
+    "--data-seed",
+    "--bodies",
+    "--run-dir",
+    "--restart",
+    "--data-root",
+}
 
 
 def _train_parser():

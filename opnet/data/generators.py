@@ -31,6 +31,7 @@ __all__ = [
     "generate_shapes",
     "interpolate_controls",
     "resolution_map",
+    "BODIES",
 ]
 
 #: Bumped when a generator changes what it produces: cached collections then no longer match.
@@ -53,6 +54,29 @@ PRESETS = {
     "default": Preset(subjects=24, frames=16, random=20, test_subjects=3, val_subcollections=8),
     "paper": Preset(subjects=48, frames=28, random=40, test_subjects=5, val_subcollections=20),
 }
+
+
+#: How the training shapes of a generated collection get their bodies (``load_collection(bodies=)``): ``"subject"``
+#: (the collections' design: each subject's body in all its sequences), ``"sequence"`` (a body drawn anew for each
+#: training sequence), ``"shape"`` (for each training shape) or ``"mixed"`` (every other training shape keeps its
+#: subject's body, the others get one of their own). The held-out splits keep their subjects' bodies, so ``val`` and
+#: the test sets are the same shapes whatever the choice: only the number of distinct bodies the network trains on
+#: changes, not the number of shapes.
+BODIES = ("subject", "sequence", "shape", "mixed")
+
+
+def _new_bodies(bodies: str, subject, motion, split, seed: int, draw):
+    """Each training shape's new body index and the new bodies' phenotypes ``(B, 6)`` for ``bodies`` (:data:`BODIES`),
+    drawn by ``draw(n, rng)`` from a stream of their own (``default_rng([seed, 1])``: the other draws are unchanged).
+    """
+    train = np.flatnonzero(split == "train")
+    if bodies == "mixed":  # every other training shape: the others keep their subject's body
+        train = train[1::2]
+    if bodies == "sequence":
+        _, which = np.unique(np.stack([subject[train], motion[train]]).astype(str), axis=1, return_inverse=True)
+    else:
+        which = np.arange(len(train))
+    return train, which.ravel(), draw(int(which.max()) + 1, np.random.default_rng([seed, 1]))
 
 
 def _design(preset: Preset, motions, rng: np.random.Generator):
@@ -83,17 +107,37 @@ def _design(preset: Preset, motions, rng: np.random.Generator):
 
 
 def _build(
-    preset: str, seed: int, meta: dict, progress, *, motions, sequence, random, evaluate, rest, faces, reference=None
+    preset: str,
+    seed: int,
+    meta: dict,
+    progress,
+    *,
+    motions,
+    sequence,
+    random,
+    evaluate,
+    rest,
+    faces,
+    reference=None,
+    bodies: str = "subject",
 ):
     """A collection: ``sequence(motion, n_frames, amplitude=, offset=)`` and ``random(n, rng)`` give per-shape
     controls (poses or expression weights), ``evaluate(subjects, controls)`` the vertices; ``rest`` is the
     base's control. ``reference(subjects, controls)``, if given, evaluates the shapes on which the
-    evaluation subset is chosen (so that every resolution gets the same subset).
+    evaluation subset is chosen (so that every resolution gets the same subset). ``bodies``: :data:`BODIES`.
     """
     p = PRESETS[preset]
     rng = np.random.default_rng(seed)
     subjects = random_subjects(p.subjects, rng)
     subject, motion, frame, split, sub, names = _design(p, motions, rng)
+    phenotypes = subjects[subject]
+    if bodies != "subject":  # the training shapes' bodies drawn anew; the held-out shapes' are untouched
+        train, which, drawn = _new_bodies(bodies, subject, motion, split, seed, random_subjects)
+        phenotypes[train] = drawn[which]
+        names, sub = names.astype(object), sub.astype(object)
+        names[train] = [f"body{j:04d}" for j in which]
+        sub[train] = [f"{n}/{m}" for n, m in zip(names[train], motion[train])]
+        names, sub = names.astype(str), sub.astype(str)
     amplitude = rng.uniform(0.7, 1.0, p.subjects)  # each person moves a little differently...
     offset = rng.uniform(0.05, 0.45, (p.subjects, len(motions)))  # ...and is caught at other instants
     controls = np.empty((len(subject), *rest.shape))
@@ -103,10 +147,10 @@ def _build(
                 m, p.frames, amplitude=amplitude[s], offset=offset[s, j]
             )
         controls[(subject == s) & (motion == "random")] = random(p.random, rng)
-    vertices = evaluate(subjects[subject], controls)
+    vertices = evaluate(phenotypes, controls)
     base = evaluate(np.array([AVERAGE_SUBJECT]), rest[None])[0]
-    params = dict(phenotypes=subjects[subject], motion=motion, frame=frame, controls=controls.astype(np.float32))
-    fps_vertices = None if reference is None else reference(subjects[subject], controls)
+    params = dict(phenotypes=phenotypes, motion=motion, frame=frame, controls=controls.astype(np.float32))
+    fps_vertices = None if reference is None else reference(phenotypes, controls)
     return assemble(
         vertices, faces, base, split, sub, names, params, meta, progress=progress, fps_vertices=fps_vertices
     )
@@ -135,7 +179,7 @@ def shape_count(name: str, preset: str) -> int:
     return p.subjects * (len(MOTIONS[name]) * p.frames + p.random)
 
 
-def _humans(preset, resolution, seed, meta, progress=None):
+def _humans(preset, resolution, seed, meta, progress=None, bodies="subject"):
     one_k = None if resolution == "1k" else _evaluator("humans", "1k")
     return _build(
         preset,
@@ -149,10 +193,11 @@ def _humans(preset, resolution, seed, meta, progress=None):
         rest=humans.rest_pose(),
         faces=humans.human_faces(resolution),
         reference=one_k,
+        bodies=bodies,
     )
 
 
-def _heads(preset, resolution, seed, meta, progress=None):
+def _heads(preset, resolution, seed, meta, progress=None, bodies="subject"):
     return _build(
         preset,
         seed,
@@ -164,10 +209,11 @@ def _heads(preset, resolution, seed, meta, progress=None):
         evaluate=_evaluator("heads", resolution),
         rest=np.zeros(len(heads.FACIAL_ACTIONS)),
         faces=heads.head_faces(),
+        bodies=bodies,
     )
 
 
-def _hands(preset, resolution, seed, meta, progress=None):
+def _hands(preset, resolution, seed, meta, progress=None, bodies="subject"):
     return _build(
         preset,
         seed,
@@ -179,6 +225,7 @@ def _hands(preset, resolution, seed, meta, progress=None):
         evaluate=_evaluator("hands", resolution),
         rest=hands.hand_poses({}, 1)[0],
         faces=hands.hand_faces(),
+        bodies=bodies,
     )
 
 
@@ -306,6 +353,7 @@ def stem_name(meta: dict) -> str:
     the animals' builder digest (``-<8 hex>``: their code and the asset package's version).
     """
     stem = f"{meta['name']}-{meta['preset']}-{meta['resolution']}-seed{meta['seed']}-v{meta['generator_version']}"
+    stem += f"-bodies-{meta['bodies']}" if "bodies" in meta else ""
     return stem + (f"-{meta['builder'][:8]}" if "builder" in meta else "")
 
 
@@ -319,6 +367,7 @@ def load_collection(
     rebuild: bool = False,
     progress: bool | None = None,
     kinds=None,
+    bodies: str = "subject",
 ) -> Collection:
     """The collection ``name`` (``"humans"``, ``"heads"``, ``"hands"`` or ``"animals"``) at ``preset``, built if
     missing.
@@ -349,7 +398,16 @@ def load_collection(
         raise ValueError(f"seed must be an integer, got {seed!r}.") from None
     root = Path(root) if root is not None else default_root()
     meta = dict(name=name, preset=preset, resolution=resolution, seed=seed, generator_version=GENERATOR_VERSION)
+    if bodies not in BODIES:
+        raise ValueError(f"bodies must be one of {list(BODIES)}, got {bodies!r}.")
     extra = {}
+    if bodies != "subject":
+        if name == "animals":
+            raise ValueError(
+                "bodies= draws new human, head or hand bodies; the animals' bodies are blends of their species: "
+                "leave bodies='subject' for them."
+            )
+        meta["bodies"] = extra["bodies"] = bodies
     if name == "animals":  # keyed by their code and the asset package's version; the registrations kept in root
         meta["builder"] = animals.builder_digest()
         extra["root"] = root

@@ -188,6 +188,52 @@ class Collection:
         out._instances.update(self._instances)
         return out
 
+    def with_training_from(self, *others) -> Collection:
+        """A collection of these shapes and the ``train`` shapes of ``others``, added to its ``train`` split (at
+        the end), each with its own operators: the same shapes encoded otherwise (e.g. through computed maps of other
+        triangulations, :func:`opnet.data.mapped_collection`), or more shapes. The held-out splits and the evaluation
+        subset are this collection's. ``others`` must have the same base shape, basis, vertex count and channels (names
+        and digests).
+        """
+        parts = [self]
+        for other in others:
+            if not isinstance(other, Collection):
+                raise TypeError(f"others must be opnet.data.Collection objects, got {type(other).__name__}.")
+            same = (
+                other.vertices.shape[1:] == self.vertices.shape[1:]
+                and other.kinds == self.kinds
+                and other.digests == self.digests
+                and other.base_basis.k == self.base_basis.k
+                and np.array_equal(other.base_basis.mesh.vertices, self.base_basis.mesh.vertices)
+            )
+            if not same:
+                raise ValueError(
+                    f"{other!r} cannot lend its training shapes to {self!r}: they need the same base shape, basis "
+                    "size, vertex count and channels (with_kinds gives them the same channels)."
+                )
+            parts.append(other.subset(other.indices("train")))
+        if len(parts) == 1:
+            return self
+        params = {
+            k: np.concatenate([p.params[k] for p in parts]) for k in self.params if all(k in p.params for p in parts)
+        }
+        out = Collection(
+            np.concatenate([p.vertices for p in parts]),
+            self.faces,
+            np.concatenate([p.operators for p in parts]),
+            np.concatenate([p.split for p in parts]),
+            np.concatenate([p.subcollection for p in parts]),
+            np.concatenate([p.subject for p in parts]),
+            self.base_basis,
+            self.eval_subset,
+            params,
+            dict(self.meta, training_from=[dict(p.meta) for p in parts[1:]]),
+            self.kinds,
+            dict(self.digests),
+        )
+        out._instances.update(self._instances)
+        return out
+
     # ------------------------------------------------------------------------------------------------------
     # channels
 

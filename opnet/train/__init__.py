@@ -70,6 +70,7 @@ def fit(
     epochs: int = 50,
     batch_size: int = 32,
     lr: float = 1e-3,
+    operator_noise: float = 0.0,
     seed: int = 0,
     device="auto",
     run_dir=None,
@@ -102,6 +103,10 @@ def fit(
     epochs : passes over the training split. Resuming with more epochs continues the run.
     batch_size : shapes per optimiser step (the global batch under ``torchrun``).
     lr : Adam's learning rate (the peak one under ``schedule="onecycle"``).
+    operator_noise : Gaussian noise added to every training input at every step, per entry ``operator_noise`` times
+        that entry's standard deviation over the training operators (OperatorNet only; ``0``, the default: none).
+        A model of a computed map's error, which is of the order of that deviation (docs' results page,
+        "Generalisation"); each epoch's noise is a function of ``seed`` and the epoch, so a resumed run is exact.
     seed : initialisation and shuffling (epoch ``e`` is shuffled by ``numpy.random.default_rng([seed, e])``).
     device : ``"auto"`` (CUDA when available), ``"cpu"``, ``"cuda"``...
     run_dir : path, optional

@@ -126,6 +126,9 @@ class TrainConfig:
         Passes over the training split; shapes per optimiser step (global under ``torchrun``).
     lr : float
         Adam's (peak) learning rate.
+    operator_noise : float
+        Gaussian noise added to each training input, per entry this many times the entry's standard deviation over the
+        training operators (OperatorNet only); 0 (default): none.
     seed : int
         Initialisation and shuffling.
     hidden : int
@@ -158,6 +161,12 @@ class TrainConfig:
     epochs: int = _option(50, "passes over the training split (50); more continues a run", type=positive_int)
     batch_size: int = _option(32, "shapes per step, global across processes (32)", type=positive_int)
     lr: float = _option(1e-3, "Adam learning rate (1e-3)", type=float)
+    operator_noise: float = _option(
+        0.0,
+        "Gaussian noise on the training operators, in units of each entry's standard deviation over the training "
+        "set (a model of a computed map's error); 0, the default, is none",
+        type=float,
+    )
     seed: int = _option(0, "initialisation and shuffling seed (0)", type=int)
     hidden: int = _option(1024, "width of the two hidden dense layers (1024)", type=positive_int)
     subtract_identity: bool = _option(True, "feed the network D instead of D - I (the default subtracts the identity)")
@@ -187,10 +196,12 @@ class TrainConfig:
             or self.residual is not None
             or self.depth != 1
             or self.subtract_identity is not True
+            or self.operator_noise
         ):
             raise ValueError(
                 "architecture='pointnet' reads coordinates, not operators: channels, depth, variant, "
-                "subtract_identity, standardize and residual are OperatorNet's options; leave them unset."
+                "subtract_identity, standardize, residual and operator_noise are OperatorNet's options; leave them "
+                "unset."
             )
         if not self.pointnet and self.n_points is not None:
             raise ValueError(
@@ -211,6 +222,9 @@ class TrainConfig:
             )
         check_int("n_points", self.points)
         check_number("lr", self.lr)
+        noise = self.operator_noise
+        if isinstance(noise, bool) or not (isinstance(noise, (int, float)) and 0 <= noise < float("inf")):
+            raise ValueError(f"operator_noise must be a number >= 0 (0: none), got {noise!r}.")
         resolve_device(self.device)
         if self.depth not in DEPTHS:  # OperatorNet's own check, made before any data is read
             raise ValueError(

@@ -85,6 +85,12 @@ def _val_d_R(net, inputs, vertices, batch_size=256, loss=rigid_alignment_loss) -
     return total / len(inputs)
 
 
+def _positions(batch: np.ndarray, part: np.ndarray) -> np.ndarray:
+    """Where each shape of ``part`` (a rank's share of ``batch``, or its first shape) stands in ``batch``."""
+    where = {int(i): j for j, i in enumerate(batch)}
+    return np.array([where[int(i)] for i in part])
+
+
 def _onecycle(step: int, total: int, lr: float) -> float:
     """The learning rate at ``step`` of ``total`` under ``schedule="onecycle"`` (see :func:`opnet.train.fit`)."""
     warm = 0.05 * total
@@ -167,17 +173,26 @@ def run_epochs(
         )
     net.train()
     n = len(data.train_in)
+    noise = config.operator_noise * data.input_std() if config.operator_noise else None
     steps_per_epoch = -(-n // batch_size)
     step, total_steps = start * steps_per_epoch, epochs * steps_per_epoch
     saved = time.perf_counter()  # when the run directory was last written (opened, for the first checkpoint)
     for epoch in range(start + 1, epochs + 1):
         t0 = time.perf_counter()
         order = np.random.default_rng([seed, epoch]).permutation(n)
+        if noise is not None:  # this epoch's noise: a function of the seed and the epoch (exact resume, any rank)
+            draw = torch.Generator(device=device).manual_seed(
+                int(np.random.default_rng([seed, epoch, 1]).integers(2**62))
+            )
         loss_sum = torch.zeros((), dtype=torch.float64, device=device)
         for s in range(0, n, batch_size):
             batch = order[s : s + batch_size]
             part, weight = _shard(batch, rank, world)
-            pred = model(data.train_in[part])
+            inputs = data.train_in[part]
+            if noise is not None:  # drawn for the global batch, so that the ranks split the same noise
+                drawn = torch.randn((len(batch), *noise.shape), generator=draw, device=device, dtype=noise.dtype)
+                inputs = inputs + drawn[_positions(batch, part)] * noise
+            pred = model(inputs)
             finite = torch.isfinite(pred).all()
             # a non-finite output is replaced by zeros for Kabsch; the step is refused below in any case
             per_shape = loss(torch.where(finite, pred, torch.zeros_like(pred)), data.train_X[part], reduction="none")

@@ -25,6 +25,10 @@ class TrainData:
     val_in: torch.Tensor
     val_X: torch.Tensor
 
+    def input_std(self) -> torch.Tensor:
+        """The per-entry standard deviation of the training inputs ``(C, k, k)`` (the unit of ``operator_noise``)."""
+        return self.train_in.double().std(0).to(self.train_in.dtype)
+
 
 def training_data(collection, channels, pointnet: bool, device) -> TrainData:
     """The train and val tensors of ``collection``, checked.

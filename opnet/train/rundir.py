@@ -191,6 +191,7 @@ def run_config(collection, channels, net, config, device, world: int) -> dict:
             seed=config.seed,
             schedule=config.lr_schedule,
             version=TRAINING_VERSION,
+            **({"operator_noise": config.operator_noise} if config.operator_noise else {}),  # older runs match
         ),
         versions=dict(opnet=_opnet_version(), torch=str(torch.__version__)),
         device=str(device),
