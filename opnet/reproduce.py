@@ -117,6 +117,7 @@ __all__ = [
     "MORE_BODIES",
     "bodies_specs",
     "bodies_networks",
+    "generalisation_rows",
     "DISCRETISATIONS",
     "DISCRETISATION_NETWORKS",
     "POINTNET",
@@ -212,8 +213,9 @@ COMP_OPTIONS = {"OperatorNet (Comp)(Ext), operator noise": (("extrinsic",), {"op
 MORE_BODIES = {"OperatorNet ours, a body per shape (Int+Ext)": "shape"}
 #: The different-discretisation rows: test shapes on these meshes, mapped onto the 1k base by these maps.
 DISCRETISATIONS = (("2k", "true"), ("2k", "computed"), ("5k", "true"), ("5k", "computed"))
-#: The networks that decode them (Table 1's, :data:`COMP`'s and :data:`COMP_OPTIONS`' names).
-DISCRETISATION_NETWORKS = ("OperatorNet (Int+Ext)", "OperatorNet (Ext)", *COMP, *COMP_OPTIONS)
+#: The networks that decode them (Table 1's and :data:`COMP`'s names; :func:`generalisation_rows` adds
+#: :data:`COMP_OPTIONS`').
+DISCRETISATION_NETWORKS = ("OperatorNet (Int+Ext)", "OperatorNet (Ext)", *COMP)
 
 #: The generated collections :func:`reproduce` runs on.
 COLLECTIONS = ("humans", "animals")
@@ -337,14 +339,6 @@ def reproduce(
     specs = _declared_specs(budget)
     methods = [operatornet_method(nets[name], coll, name) for name in (*TABLE1, *OURS)]
     methods += [pointnet_method(nets[POINTNET], coll, POINTNET)] if applications else []
-    if bodies:
-        more, more_histories, more_devices = bodies_networks(
-            coll, out, budget, device=device, bar=runs, progress=progress, data_root=data_root
-        )
-        nets.update(more)
-        histories.update(more_histories)
-        devices.update(more_devices)
-        methods += [operatornet_method(net, coll, name) for name, net in more.items()]
     for m in methods:
         m.info = dict(table="table1", **specs[m.name].fields(), **devices[m.name])
     if maps:
@@ -385,6 +379,20 @@ def reproduce(
             data_root=data_root,
             progress=progress,
             out=out / "figures" if figures else None,
+            extra=info,
+        )
+    if bodies or maps:
+        rows += generalisation_rows(
+            coll,
+            out,
+            budget,
+            bodies=bodies,
+            maps=maps,
+            refine=refine,
+            device=device,
+            data_root=data_root,
+            progress=progress,
+            bar=runs,
             extra=info,
         )
     context = dict(
@@ -496,7 +504,8 @@ def _declared_specs(budget: Budget) -> dict:
     """Name → declared run (:class:`opnet.experiments.RunSpec`) of Table 1's networks (:func:`table1_specs`,
     :func:`comp_specs`, :func:`bodies_specs`).
     """
-    return {s.name: s for s in (*table1_specs(budget), *comp_specs(budget), *bodies_specs(budget))}
+    specs = (*table1_specs(budget), *comp_specs(budget), *comp_specs(budget, options=True), *bodies_specs(budget))
+    return {s.name: s for s in specs}
 
 
 def _train(coll, out, spec, *, device, progress, bar=None):
@@ -566,15 +575,16 @@ def comp_networks(coll, out, budget: Budget, *, device="cpu", progress=None, bar
     return comp, nets, histories, info
 
 
-def comp_specs(budget: Budget) -> list:
-    """Table 1's "Comp" declared runs (:data:`COMP`, group ``"comp"``), each named by its Table 1 row, and the rows
-    beside them (:data:`COMP_OPTIONS`, group ``"comp-options"``).
+def comp_specs(budget: Budget, *, options: bool = False) -> list:
+    """Table 1's "Comp" declared runs (:data:`COMP`, group ``"comp"``), each named by its Table 1 row; with
+    ``options``, the runs beside them instead (:data:`COMP_OPTIONS`, group ``"comp-options"``).
     """
-    specs = [spec("comp", budget, channels, name=name) for name, channels in COMP.items()]
-    return specs + [
-        spec("comp-options", budget, channels, name=name, options=options)
-        for name, (channels, options) in COMP_OPTIONS.items()
-    ]
+    if options:
+        return [
+            spec("comp-options", budget, channels, name=name, options=extra)
+            for name, (channels, extra) in COMP_OPTIONS.items()
+        ]
+    return [spec("comp", budget, channels, name=name) for name, channels in COMP.items()]
 
 
 def bodies_specs(budget: Budget) -> list:
@@ -611,6 +621,62 @@ def bodies_networks(coll, out, budget: Budget, *, device="cpu", progress=None, b
         nets[s.name], histories[s.name], info[s.name] = _train(more, out, s, device=device, progress=progress, bar=bar)
         info[s.name] = dict(info[s.name], bodies=kind)
     return nets, histories, info
+
+
+def generalisation_rows(
+    coll,
+    out,
+    budget: Budget,
+    *,
+    bodies: bool = True,
+    maps: bool = True,
+    refine: bool = True,
+    device="cpu",
+    data_root=None,
+    progress=None,
+    bar=None,
+    extra: dict | None = None,
+) -> list[dict]:
+    """The rows beside Table 1 for generalisation (the docs' results page, "Generalisation"), their networks trained
+    in ``out/runs/`` (or loaded when trained there).
+
+    With ``bodies``: the :data:`MORE_BODIES` networks (:func:`bodies_networks`) on ``coll``'s test sets (rows like
+    Table 1's, with ``bodies``) and, with ``refine``, refined by :func:`opnet.reconstruct` like Table 1's networks
+    (:data:`REFINE`, on :data:`REFINE_SETS`). With ``maps``: the :data:`COMP_OPTIONS` networks, trained on the "Comp"
+    rows' operators (:data:`COMP_RESOLUTION` computed maps), on their test sets and in the different-discretisation
+    rows (:func:`discretisation_rows`).
+    """
+    from .data import mapped_collection
+
+    specs, rows = _declared_specs(budget), []
+
+    def described(methods, info):
+        for m in methods:
+            m.info = dict(table="table1", **specs[m.name].fields(), **info[m.name])
+        return methods
+
+    if bodies:
+        nets, _, info = bodies_networks(
+            coll, out, budget, device=device, progress=progress, bar=bar, data_root=data_root
+        )
+        methods = described([operatornet_method(net, coll, name) for name, net in nets.items()], info)
+        rows += evaluate(coll, methods, TEST_SETS, extra=extra)
+        if refine:
+            options = dict(REFINE, steps=budget.refine_steps, max_shapes=budget.refine_shapes, device=device)
+            refined = [refined_method(m, coll, **options) for m in methods]
+            for m, name in zip(refined, nets, strict=True):
+                m.info = dict(table="table1", **specs[name].refined_fields(), bodies=MORE_BODIES[name])
+                m.info.update(epochs=None, train_seconds=None, device=str(device))
+            rows += evaluate(coll, refined, REFINE_SETS, extra=extra)
+    if maps:
+        comp = mapped_collection(coll, COMP_RESOLUTION, "computed", root=data_root, progress=progress)
+        nets, info = {}, {}
+        for s in comp_specs(budget, options=True):
+            nets[s.name], _, info[s.name] = _train(comp, out, s, device=device, progress=progress, bar=bar)
+        methods = described([operatornet_method(net, comp, name) for name, net in nets.items()], info)
+        rows += evaluate(comp, methods, TEST_SETS, extra=extra)
+        rows += discretisation_rows(coll, nets, budget, comp=comp, data_root=data_root, progress=progress, extra=extra)
+    return rows
 
 
 def discretisation_rows(

@@ -122,7 +122,9 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
     assert context["opnet_version"] == opnet.__version__ and len(context["date"]) == len("2026-12-02")
     headline = [line.split(" | ")[0].lstrip("| ") for line in headline_markdown(saved)[2:]]  # the README's rows
     networks = [*reproduce.TABLE1, *reproduce.OURS, *reproduce.MORE_BODIES]
-    assert headline == [*networks, "Nearest neighbour (Int+Ext)", "Base shape"]
+    assert headline == [*reproduce.TABLE1, *reproduce.OURS, "Nearest neighbour (Int+Ext)", "Base shape"] + [
+        *reproduce.MORE_BODIES  # the rows beside Table 1 come after it
+    ]
     assert reproduce.results_markdown(saved, context) == (tmp_path / "results.md").read_text()  # all it needs
     t1 = [r for r in saved if r["table"] == "table1"]
     assert {(r["method"], r["split"]) for r in t1} == {
@@ -301,7 +303,7 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
     for short in ("A+E+C", "Ext"):  # the Comp networks were trained on it
         config = json.loads((tmp_path / "runs" / f"comp-{short}-d1" / "config.json").read_text())
         assert config["data"]["fingerprint"] == train.collection_fingerprint(comp, opnet.CHANNEL_SETS[short])
-    (spec,) = [s for s in reproduce.comp_specs(budget) if s.name in reproduce.COMP_OPTIONS]  # beside them, with noise
+    (spec,) = reproduce.comp_specs(budget, options=True)  # beside them: with noise on the training operators
     config = json.loads((tmp_path / "runs" / spec.run_name / "config.json").read_text())
     assert config["train"]["operator_noise"] == reproduce.COMP_OPTIONS[spec.name][1]["operator_noise"] > 0
     assert config["data"]["fingerprint"] == train.collection_fingerprint(comp, ("extrinsic",))
@@ -310,7 +312,7 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
     encodings = [("1k", "exact"), *reproduce.DISCRETISATIONS]
     assert [(r["resolution"], r["maps"], r["method"]) for r in disc] == [
         (*e, m) for e in encodings for m in reproduce.DISCRETISATION_NETWORKS
-    ]
+    ] + [(*e, m) for e in encodings for m in reproduce.COMP_OPTIONS]  # the rows beside them, after them
     assert all(r["n_shapes"] == 3 and np.isfinite(r["d_R"]) for r in disc)
     errors = {(r["resolution"], r["maps"]): r["map_error"] for r in disc}
     assert 0 < errors["2k", "computed"] < 0.05 and 0 < errors["5k", "computed"] < 0.05  # metres
