@@ -13,7 +13,7 @@
 #               COLLECTION=animals: build/reproduce-animals-default into results/animals-default)
 #   make benchmarks  measure again the benchmarks the docs show, into benchmarks/results/*.json (an idle machine;
 #               about 20 min on 2 cores, most of it the PointNet one); the ones that train or read networks (matching,
-#               refinement, scaling, variants, offset channels): make benchmarks-results (hours)
+#               refinement, scaling, variants, offset channels, generalisation): make benchmarks-results (hours)
 PYTHON ?= python3
 VENV   ?= .venv
 PRESET ?= quick
@@ -104,6 +104,8 @@ benchmarks-results: $(STAMP)
 	cd benchmarks && ../$(PY) variants.py --preset default --out ../build/variants-default --json results/variants.json
 	cd benchmarks && ../$(PY) offset_channels.py --preset default --runs ../build/offset-channels-default \
 		--json results/offset_channels.json
+	cd benchmarks && ../$(PY) generalisation.py --preset default --runs ../build/reproduce-default/runs \
+		--json results/generalisation.json
 
 clean:
 	rm -rf build $(VENV) .venv-core

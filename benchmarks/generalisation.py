@@ -2,7 +2,8 @@
 
 Unseen bodies. This project's variant ("ours", Table 1's budget at the preset) trained on the humans
 
-- as built (each training subject's body in all its sequences: 21 bodies at ``default``; Table 1's run),
+- as built (each training subject's body in all its sequences: 21 bodies at ``default``; the spec of Table 1's run,
+  in its folder, so that a reproduction's finished run is reused),
 - with a body drawn anew for each training sequence (``load_collection(..., bodies="sequence")``: 297 bodies),
 - with a body drawn anew for each training shape (``bodies="shape"``: 4836 bodies), the same shape count,
 - with every other training shape given a body of its own (``bodies="mixed"``),
@@ -10,17 +11,17 @@ Unseen bodies. This project's variant ("ours", Table 1's budget at the preset) t
 then the ensemble of the best data with a second seed (``opnet.evaluate.ensemble_method``) and the best refined by
 operator matching (``opnet.evaluate.refined_method``, ``opnet.reproduce.REFINE``), measured on ``val`` (held-out
 sequences of bodies seen in training, where Table 1's ``test`` sequences come from) and on the *validation bodies*:
-every shape of the humans generated with seed 1 at ``quick`` (8 bodies that no split of the seed-0 collections
-holds). The test sets are read once, by the final evaluation of the chosen option beside the baseline.
+every shape of the preset's humans generated with seed 1 (24 bodies at ``default``, none of which the seed-0
+collections hold). The test sets are read once, by the final evaluation of the chosen option beside the baseline.
 
 Other triangulations. The paper's OperatorNet on the extrinsic operator (the channel a computed map shifts least:
 the ``shift`` column), Table 1's budget, trained on
 
 - operators through computed maps from each shape's 2k mesh (Table 1's "(Comp)(Ext)"),
-- the same with Gaussian noise on the training operators, one standard deviation per entry
-  (``fit(operator_noise=1.0)``, a model of a map's error),
+- the same with Gaussian noise on the training operators, one or a quarter of a standard deviation per entry
+  (``fit(operator_noise=1.0)``, ``0.25``: a model of a map's error),
 - half the training shapes through the 2k computed maps, half with their exact 1k operators
-  (``Collection.with_training_from``), the same shape count,
+  (``opnet.data.half_mapped``), the same shape count,
 
 each decoding ``val`` shapes given as 1k meshes (exact), 2k and 5k meshes (computed maps, ``opnet.data.
 mapped_collection``), the 5k meshes also mapped by ZoomOut with 60 and 150 functions instead of 100, and the best
@@ -31,12 +32,13 @@ The run folders are ``reproduce``'s (``table1-*``, ``comp-*``, ``bodies-*``): a 
 reuses them. Run::
 
     .venv/bin/python benchmarks/generalisation.py --preset default --runs reproduce-default/runs \\
-        --json results/generalisation.json       # 7 networks, about 10 min each on 2 cores
+        --json results/generalisation.json       # 9 networks, 8-25 min each on 2 cores
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -61,12 +63,15 @@ BODIES = {
 #: the triangulation candidates: label -> (training data, RunSpec group, options)
 MAPS = {
     "(Comp)(Ext)": ("comp", "comp", {}),
-    "(Comp)(Ext), operator noise 1": ("comp", "comp-options", {"operator_noise": 1.0}),
-    "(Comp + 1k)(Ext), half each": ("mixed", "comp-mixed", {}),
+    "(Comp)(Ext), operator noise 1": ("comp", "comp-noise", {"operator_noise": 1.0}),
+    "(Comp)(Ext), operator noise 0.25": ("comp", "comp-noise", {"operator_noise": 0.25}),
+    "(Comp + 1k)(Ext), half each": ("half", "comp-half", {}),
 }
 #: the ZoomOut sizes compared on the 5k meshes (``opnet.matching.compute_map``'s ``k``; 100 is the default)
 ZOOMOUT = (60, 100, 150)
 METRICS = ("d_R", "d_R_median")
+#: what each of ``--parts`` measures: the ``part`` field of its rows
+PARTS = {"bodies": ("bodies", "bodies-final"), "maps": ("maps", "maps-final")}
 
 
 def parse_args(argv=None):
@@ -75,6 +80,11 @@ def parse_args(argv=None):
     ap.add_argument("--runs", required=True, help="folder for the run directories (reused to resume)")
     ap.add_argument("--val-shapes", type=int, default=48, help="val shapes mapped from the 2k and 5k meshes (48)")
     ap.add_argument("--refine-shapes", type=int, default=16, help="shapes each refinement row refines (16)")
+    ap.add_argument(
+        "--parts",
+        default="bodies,maps",
+        help="bodies, maps or both (default); with --json, an existing file keeps the other part's rows",
+    )
     ap.add_argument("--json", metavar="PATH", help="also write the results as JSON to PATH")
     return ap.parse_args(argv)
 
@@ -141,18 +151,17 @@ def bodies(args, budget, rows: list) -> None:
     )
     final = {"as built (21 bodies)": runs["as built (21 bodies)"].method(base), best: runs[best].method(base)}
     final[pair] = ensemble_method([runs[best].method(base), second.method(base)])
+    held_out = base.indices("test_subjects")
     for label, method in final.items():  # the final evaluation: the test sets, read once
         for r in evaluate(base, [method], ("test", "test_subjects")):
-            rows.append(_row([r], split=r["split"], part="bodies-final", candidate=label))
-
-
-def _mixed_maps(coll, comp):
-    """Half the training shapes through the computed maps (``comp``), the other half exact (``coll``); the held-out
-    shapes through the maps, as Table 1's Comp networks see them.
-    """
-    train = coll.indices("train")
-    kept = np.sort(np.r_[np.flatnonzero(coll.split != "train"), train[::2]])
-    return comp.subset(kept).with_training_from(coll.subset(train[1::2]))
+            row = _row([r], split=r["split"], part="bodies-final", candidate=label)
+            if r["split"] == "test_subjects":  # what carries the mean: each unseen body's, the random poses'
+                err = opnet.metrics.d_R(base.vertices[held_out].astype(np.float64), method.reconstruct(held_out))
+                row["per_body"] = {b: float(err[base.subject[held_out] == b].mean()) for b in base.subjects(r["split"])}
+                random = base.params["motion"][held_out] == "random"
+                row["random_poses"], row["sequences"] = float(err[random].mean()), float(err[~random].mean())
+                row["random_share"] = float(err[random].sum() / err.sum())
+            rows.append(row)
 
 
 def maps(args, budget, rows: list) -> None:
@@ -161,7 +170,7 @@ def maps(args, budget, rows: list) -> None:
     """
     coll = opnet.data.load_collection("humans", args.preset)
     comp = mapped_collection(coll, "2k", "computed")
-    data = {"comp": comp, "mixed": _mixed_maps(coll, comp)}
+    data = {"comp": comp, "half": opnet.data.half_mapped(coll, comp)}
     runs = {
         label: train_run(spec(group, budget, ("extrinsic",), options=options), data[kind], args.runs)
         for label, (kind, group, options) in MAPS.items()
@@ -224,10 +233,16 @@ def measure(args) -> dict:
     """Run the benchmark described by ``args`` (:func:`parse_args`); everything it measured, as JSON-able data."""
     info = torch_machine_info()
     budget = BUDGETS[args.preset]
+    parts = args.parts.split(",")
+    if not set(parts) <= {"bodies", "maps"}:
+        raise SystemExit(f"--parts takes bodies, maps or bodies,maps; got {args.parts!r}")
     rows: list = []
+    if args.json and os.path.exists(args.json) and len(parts) < 2:  # the other part's rows, measured before
+        own = {p: PARTS[p] for p in parts}  # the row parts each measures
+        rows = [r for r in json.loads(open(args.json).read())["rows"] if not any(r["part"] in v for v in own.values())]
     t0 = time.perf_counter()
-    bodies(args, budget, rows)
-    maps(args, budget, rows)
+    for part in parts:
+        {"bodies": bodies, "maps": maps}[part](args, budget, rows)
     return {
         "date": time.strftime("%Y-%m-%d"),
         "config": {"preset": args.preset, "epochs": budget.epochs, "batch_size": budget.batch_size, "lr": budget.lr},
@@ -252,15 +267,12 @@ def _reference(preset: str) -> dict | None:
     )
 
 
-def report(result: dict) -> str:
-    """The Markdown report of one :func:`measure` result (what the script prints; the docs render the shipped one)."""
-    rows, preset = result["rows"], result["config"]["preset"]
-    part = {p: [r for r in rows if r["part"] == p] for p in ("bodies", "bodies-final", "maps", "maps-final")}
+def _bodies_report(part: dict) -> list[str]:
+    """The unseen-bodies tables (lines) of a result's rows, grouped by ``part``."""
     out = [
-        f"humans at `{preset}`, Table 1's budget ({result['config']['epochs']} epochs); d_R ×10⁻⁴ m², mean (median).",
-        "",
-        "**Unseen bodies**, our variant. *val*: held-out sequences of training bodies; *validation bodies*: the 464 "
-        "shapes of 8 bodies generated with seed 1 (refinement: on evenly spaced ones).",
+        "**Unseen bodies**, our variant. *val*: held-out sequences of training bodies; *validation bodies*: every "
+        "shape of the preset's humans generated with seed 1, whose bodies no split of the seed-0 collection holds "
+        "(refinement: on evenly spaced ones).",
         "",
         "| candidate | val | validation bodies | train s |",
         "|---|---:|---:|---:|",
@@ -269,30 +281,45 @@ def report(result: dict) -> str:
         cells = {r["split"]: r for r in part["bodies"] if r["candidate"] == c}
         sec = next((r["train_seconds"] for r in cells.values() if r.get("train_seconds") is not None), None)
         held = cells.get("val_bodies")
-        note = (
-            f" ({held['n_shapes']} shapes; before: {1e4 * held['d_R_before']:.3g})"
-            if held and "d_R_before" in held
-            else ""
-        )
+        note = ""
+        if held and "d_R_before" in held:
+            note = f" ({held['n_shapes']} shapes; before: {1e4 * held['d_R_before']:.3g})"
         out.append(
             f"| {c} | {_cell(cells.get('val'))} | {_cell(held)}{note} | {'–' if sec is None else f'{sec:.0f}'} |"
         )
+    final = {r["candidate"]: {} for r in part["bodies-final"]}
+    for r in part["bodies-final"]:
+        final[r["candidate"]][r["split"]] = r
+    names = list(next((c["test_subjects"]["per_body"] for c in final.values() if "test_subjects" in c), {}))
     out += [
         "",
-        "Final evaluation (the test sets, read once):",
+        "Final evaluation (the test sets, read once). The unseen bodies' d_R also body by body, and apart on their "
+        "motion sequences and on their random poses (each drawn afresh: no training shape has it), with the random "
+        "poses' share of the error summed over `test_subjects`:",
         "",
-        "| candidate | test | test_subjects |",
-        "|---|---:|---:|",
+        "| candidate | test | test_subjects | " + " | ".join(names) + " | sequences | random poses | share |",
+        "|---|---:|---:|" + "---:|" * (len(names) + 3),
     ]
-    for c in dict.fromkeys(r["candidate"] for r in part["bodies-final"]):
-        cells = {r["split"]: r for r in part["bodies-final"] if r["candidate"] == c}
-        out.append(f"| {c} | {_cell(cells.get('test'))} | {_cell(cells.get('test_subjects'))} |")
-    shifts = {}
+    for c, cells in final.items():
+        held = cells.get("test_subjects", {})
+        per = held.get("per_body", {})
+        split = [f"{1e4 * held[k]:.3g}" if k in held else "–" for k in ("sequences", "random_poses")]
+        share = f"{100 * held['random_share']:.0f} %" if "random_share" in held else "–"
+        out.append(
+            f"| {c} | {_cell(cells.get('test'))} | {_cell(held or None)} | "
+            + " | ".join(f"{1e4 * per[b]:.3g}" if b in per else "–" for b in names)
+            + f" | {' | '.join(split)} | {share} |"
+        )
+    return out
+
+
+def _maps_report(part: dict, preset: str) -> list[str]:
+    """The other-triangulations tables (lines) of a result's rows, grouped by ``part``."""
+    encodings = {}
     for r in part["maps"]:
         if "shift" in r:
-            shifts[r["resolution"], r["maps"], r["zoomout_k"]] = r
-    out += [
-        "",
+            encodings.setdefault((r["resolution"], r["maps"], r["zoomout_k"]), r)
+    out = [
         "**Other triangulations**, the paper's OperatorNet on the extrinsic operator; "
         f"{part['maps'][0]['n_shapes']} `val` shapes. Map error: mean distance between where the computed and the true "
         "map send a vertex; shift: mean ‖D_mapped − D_exact‖ / ‖D_exact − I‖ per channel (area, conformal, extrinsic).",
@@ -300,7 +327,7 @@ def report(result: dict) -> str:
         "| mesh | map | ZoomOut k | map error (cm) | shift A / C / E | " + " | ".join(MAPS) + " |",
         "|---|---|---:|---:|---|" + "---:|" * len(MAPS),
     ]
-    for key, first in shifts.items():
+    for key, first in encodings.items():
         cells = {r["candidate"]: r for r in part["maps"] if (r["resolution"], r["maps"], r["zoomout_k"]) == key}
         shift = " / ".join(f"{v:.2f}" for v in first["shift"].values())
         out.append(
@@ -310,28 +337,39 @@ def report(result: dict) -> str:
         )
     for r in part["maps"]:
         if "d_R_before" in r:
-            out.append(
-                f"\n{r['candidate']} on {r['n_shapes']} of the 5k val shapes: {_cell(r)}, before refinement "
-                f"{1e4 * r['d_R_before']:.3g}."
-            )
+            out += [
+                "",
+                f"{r['candidate']} on {r['n_shapes']} of the 5k `val` shapes: {_cell(r)}, before refinement "
+                f"{1e4 * r['d_R_before']:.3g}.",
+            ]
     ref = _reference(preset)
-    out += [
-        "",
-        "Final evaluation on `reproduce`'s `test` shapes:",
-        "",
-        "| candidate | mesh | map | test |",
-        "|---|---|---|---:|",
-    ]
+    out += ["", "Final evaluation on `reproduce`'s `test` shapes:", "", "| candidate | mesh | map | test |"]
+    out.append("|---|---|---|---:|")
     for r in part["maps-final"]:
         ratio = f" ({r['d_R'] / ref['d_R']:.1f}×)" if ref and r["resolution"] != "1k" else ""
         out.append(f"| {r['candidate']} | {r['resolution']} | {r['maps']} | {_cell(r)}{ratio} |")
     if ref:
         out += [
             "",
-            f"×: against the paper's OperatorNet (Int+Ext) on the exact 1k operators of the same shapes in the shipped "
+            "×: against the paper's OperatorNet (Int+Ext) on the exact 1k operators of the same shapes in the shipped "
             f"reproduction ({_cell(ref)}); the targets are 3× for 5k and 1.5× for 2k.",
         ]
-    out += ["", measured(result["date"], result["machine"])]
+    return out
+
+
+def report(result: dict) -> str:
+    """The Markdown report of one :func:`measure` result (what the script prints; the docs render the shipped one)."""
+    rows, preset = result["rows"], result["config"]["preset"]
+    part = {p: [r for r in rows if r["part"] == p] for p in ("bodies", "bodies-final", "maps", "maps-final")}
+    out = [
+        f"humans at `{preset}`, Table 1's budget ({result['config']['epochs']} epochs); d_R ×10⁻⁴ m², mean (median).",
+        "",
+    ]
+    if part["bodies"]:
+        out += _bodies_report(part) + [""]
+    if part["maps"]:
+        out += _maps_report(part, preset) + [""]
+    out.append(measured(result["date"], result["machine"]))
     return "\n".join(out)
 
 

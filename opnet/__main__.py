@@ -9,6 +9,7 @@ import sys
 
 
 def _parser() -> argparse.ArgumentParser:
+    from .data.generators import BODIES
     from .train.config import add_arguments
 
     p = argparse.ArgumentParser(
@@ -41,7 +42,7 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument(
         "--bodies",
         default="subject",
-        choices=["subject", "sequence", "shape", "mixed"],
+        choices=list(BODIES),
         help="generated humans, heads, hands: a body per training subject (default), or one of its own for each "
         "training sequence, each training shape, or every other training shape (mixed); the same shapes held out",
     )
@@ -162,6 +163,8 @@ def _collection(args):
     from .data.generators import GENERATORS
 
     if args.collection.endswith(".json"):
+        if getattr(args, "bodies", "subject") != "subject":
+            _parser().error("--bodies draws new bodies for a generated collection, not for a saved .json one")
         return read_collection(args.collection)
     if args.collection not in GENERATORS:
         _parser().error(

@@ -336,8 +336,6 @@ def ensemble_method(methods, name: str | None = None) -> Method:
     name : str, optional
         Default ``"Ensemble of <count>"``.
     """
-    from .metrics import rigid_align
-
     methods = list(methods)
     if len(methods) < 2 or not all(isinstance(m, Method) for m in methods):
         raise ValueError(f"an ensemble needs two or more Method objects, got {[type(m).__name__ for m in methods]}.")

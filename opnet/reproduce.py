@@ -113,7 +113,7 @@ __all__ = [
     "OURS",
     "COMP",
     "COMP_RESOLUTION",
-    "COMP_OPTIONS",
+    "COMP_HALF",
     "MORE_BODIES",
     "bodies_specs",
     "bodies_networks",
@@ -201,11 +201,11 @@ FUNCCHAR = ("area", "conformal", "offset_area", "offset_conformal")
 COMP = {"OperatorNet (Comp)(Int+Ext)": KINDS, "OperatorNet (Comp)(Ext)": ("extrinsic",)}
 #: The mesh (:data:`opnet.data.humans.RESOLUTIONS`) whose computed maps the "Comp" rows use.
 COMP_RESOLUTION = "2k"
-#: Rows beside Table 1's "Comp" rows, for other triangulations (the docs' results page, "Generalisation"): networks
-#: trained on the same computed-map operators with options of :func:`opnet.train.fit` (here Gaussian noise on the
-#: training operators, a model of a map's error), chosen on ``val`` by ``benchmarks/generalisation.py``: name →
-#: (channels, options). They are decoded in the different-discretisation rows too.
-COMP_OPTIONS = {"OperatorNet (Comp)(Ext), operator noise": (("extrinsic",), {"operator_noise": 1.0})}
+#: Rows beside Table 1's "Comp" rows, for other triangulations (the docs' results page, "Generalisation"): the paper's
+#: network trained on half the training shapes through the :data:`COMP_RESOLUTION` computed maps and half with their
+#: exact operators (:func:`opnet.data.half_mapped`), chosen on ``val`` by ``benchmarks/generalisation.py``: name →
+#: channels. Tested like the "Comp" rows, and decoded in the different-discretisation rows too.
+COMP_HALF = {"OperatorNet (Comp + 1k)(Ext)": ("extrinsic",)}
 #: Rows beside Table 1 for unseen bodies (the docs' results page, "Generalisation"): this project's variant trained on
 #: the collection with more distinct bodies among its training shapes (:func:`opnet.data.load_collection`'s
 #: ``bodies``; the held-out shapes are the same), chosen on the validation bodies by ``benchmarks/generalisation.py``:
@@ -214,7 +214,7 @@ MORE_BODIES = {"OperatorNet ours, a body per shape (Int+Ext)": "shape"}
 #: The different-discretisation rows: test shapes on these meshes, mapped onto the 1k base by these maps.
 DISCRETISATIONS = (("2k", "true"), ("2k", "computed"), ("5k", "true"), ("5k", "computed"))
 #: The networks that decode them (Table 1's and :data:`COMP`'s names; :func:`generalisation_rows` adds
-#: :data:`COMP_OPTIONS`').
+#: :data:`COMP_HALF`'s).
 DISCRETISATION_NETWORKS = ("OperatorNet (Int+Ext)", "OperatorNet (Ext)", *COMP)
 
 #: The generated collections :func:`reproduce` runs on.
@@ -325,7 +325,7 @@ def reproduce(
         total=len(TABLE1)
         + len(OURS)
         + bool(applications)
-        + (len(COMP) + len(COMP_OPTIONS) if maps else 0)
+        + (len(COMP) + len(COMP_HALF) if maps else 0)
         + (len(MORE_BODIES) if bodies else 0)
         + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0),
         desc="reproduce",
@@ -504,7 +504,7 @@ def _declared_specs(budget: Budget) -> dict:
     """Name → declared run (:class:`opnet.experiments.RunSpec`) of Table 1's networks (:func:`table1_specs`,
     :func:`comp_specs`, :func:`bodies_specs`).
     """
-    specs = (*table1_specs(budget), *comp_specs(budget), *comp_specs(budget, options=True), *bodies_specs(budget))
+    specs = (*table1_specs(budget), *comp_specs(budget), *comp_specs(budget, half=True), *bodies_specs(budget))
     return {s.name: s for s in specs}
 
 
@@ -575,15 +575,12 @@ def comp_networks(coll, out, budget: Budget, *, device="cpu", progress=None, bar
     return comp, nets, histories, info
 
 
-def comp_specs(budget: Budget, *, options: bool = False) -> list:
-    """Table 1's "Comp" declared runs (:data:`COMP`, group ``"comp"``), each named by its Table 1 row; with
-    ``options``, the runs beside them instead (:data:`COMP_OPTIONS`, group ``"comp-options"``).
+def comp_specs(budget: Budget, *, half: bool = False) -> list:
+    """Table 1's "Comp" declared runs (:data:`COMP`, group ``"comp"``), each named by its Table 1 row; with ``half``,
+    the runs beside them instead (:data:`COMP_HALF`, group ``"comp-half"``).
     """
-    if options:
-        return [
-            spec("comp-options", budget, channels, name=name, options=extra)
-            for name, (channels, extra) in COMP_OPTIONS.items()
-        ]
+    if half:
+        return [spec("comp-half", budget, channels, name=name) for name, channels in COMP_HALF.items()]
     return [spec("comp", budget, channels, name=name) for name, channels in COMP.items()]
 
 
@@ -642,11 +639,12 @@ def generalisation_rows(
 
     With ``bodies``: the :data:`MORE_BODIES` networks (:func:`bodies_networks`) on ``coll``'s test sets (rows like
     Table 1's, with ``bodies``) and, with ``refine``, refined by :func:`opnet.reconstruct` like Table 1's networks
-    (:data:`REFINE`, on :data:`REFINE_SETS`). With ``maps``: the :data:`COMP_OPTIONS` networks, trained on the "Comp"
-    rows' operators (:data:`COMP_RESOLUTION` computed maps), on their test sets and in the different-discretisation
-    rows (:func:`discretisation_rows`).
+    (:data:`REFINE`, on :data:`REFINE_SETS`). With ``maps``: the :data:`COMP_HALF` networks, trained on half the
+    training shapes through the "Comp" rows' maps (:data:`COMP_RESOLUTION`) and half exact
+    (:func:`opnet.data.half_mapped`), on the "Comp" rows' test sets and in the different-discretisation rows
+    (:func:`discretisation_rows`).
     """
-    from .data import mapped_collection
+    from .data import half_mapped, mapped_collection
 
     specs, rows = _declared_specs(budget), []
 
@@ -670,9 +668,10 @@ def generalisation_rows(
             rows += evaluate(coll, refined, REFINE_SETS, extra=extra)
     if maps:
         comp = mapped_collection(coll, COMP_RESOLUTION, "computed", root=data_root, progress=progress)
+        half = half_mapped(coll, comp)
         nets, info = {}, {}
-        for s in comp_specs(budget, options=True):
-            nets[s.name], _, info[s.name] = _train(comp, out, s, device=device, progress=progress, bar=bar)
+        for s in comp_specs(budget, half=True):
+            nets[s.name], _, info[s.name] = _train(half, out, s, device=device, progress=progress, bar=bar)
         methods = described([operatornet_method(net, comp, name) for name, net in nets.items()], info)
         rows += evaluate(comp, methods, TEST_SETS, extra=extra)
         rows += discretisation_rows(coll, nets, budget, comp=comp, data_root=data_root, progress=progress, extra=extra)

@@ -26,6 +26,7 @@ RESULT_PAGES = {
     "scaling": "results",
     "variants": "results",
     "offset_channels": "inner_products",
+    "generalisation": "results",
 }
 REMOTE_ASSET = re.compile(r"<(?:script|link|img)\b[^>]*\b(?:src|href)=\"(?:https?:)?//[^\"]+\"")
 

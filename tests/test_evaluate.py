@@ -11,7 +11,7 @@ import numpy as np
 import opnet
 from opnet import evaluate, reproduce, train
 from opnet.data import toy
-from opnet.experiments.report import headline_markdown, row_identity
+from opnet.experiments.report import MAPPED_GROUPS, headline_markdown, row_identity
 
 
 @pytest.fixture(scope="module")
@@ -295,24 +295,30 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
         refine=False,
         data_root=data,
     )
-    comp = [r for r in rows if r["table"] == "table1" and "(Comp)" in r["method"]]
+    comp = [r for r in rows if r["table"] == "table1" and r.get("group") in MAPPED_GROUPS]
     assert {(r["method"], r["split"]) for r in comp} == {
-        (m, s) for m in [*reproduce.COMP, *reproduce.COMP_OPTIONS] for s in evaluate.TEST_SETS
+        (m, s) for m in [*reproduce.COMP, *reproduce.COMP_HALF] for s in evaluate.TEST_SETS
     }
     comp = opnet.data.mapped_collection(few, "2k", root=data)  # cached by reproduce
     for short in ("A+E+C", "Ext"):  # the Comp networks were trained on it
         config = json.loads((tmp_path / "runs" / f"comp-{short}-d1" / "config.json").read_text())
         assert config["data"]["fingerprint"] == train.collection_fingerprint(comp, opnet.CHANNEL_SETS[short])
-    (spec,) = reproduce.comp_specs(budget, options=True)  # beside them: with noise on the training operators
+    (spec,) = reproduce.comp_specs(budget, half=True)  # beside them: half the shapes through the maps, half exact
     config = json.loads((tmp_path / "runs" / spec.run_name / "config.json").read_text())
-    assert config["train"]["operator_noise"] == reproduce.COMP_OPTIONS[spec.name][1]["operator_noise"] > 0
-    assert config["data"]["fingerprint"] == train.collection_fingerprint(comp, ("extrinsic",))
+    half = opnet.data.half_mapped(few, comp)
+    assert config["data"]["fingerprint"] == train.collection_fingerprint(half, ("extrinsic",))
+    ops = half.operators[half.indices("train")]
+    n_comp = len(few.indices("train")[::2])
+    assert np.array_equal(ops[:n_comp], comp.operators[few.indices("train")[::2]])
+    assert np.array_equal(ops[n_comp:], few.operators[few.indices("train")[1::2]])
+    for split in ("val", "test"):  # held out through the maps, like the Comp networks'
+        assert np.array_equal(half.operators[half.indices(split)], comp.operators[few.indices(split)])
     assert len(list(data.glob("*computed2k*.json"))) == 1  # the 2k computed rows reuse it: no subset of their own
     disc = [r for r in rows if r["table"] == "discretisation"]
     encodings = [("1k", "exact"), *reproduce.DISCRETISATIONS]
     assert [(r["resolution"], r["maps"], r["method"]) for r in disc] == [
         (*e, m) for e in encodings for m in reproduce.DISCRETISATION_NETWORKS
-    ] + [(*e, m) for e in encodings for m in reproduce.COMP_OPTIONS]  # the rows beside them, after them
+    ] + [(*e, m) for e in encodings for m in reproduce.COMP_HALF]  # the rows beside them, after them
     assert all(r["n_shapes"] == 3 and np.isfinite(r["d_R"]) for r in disc)
     errors = {(r["resolution"], r["maps"]): r["map_error"] for r in disc}
     assert 0 < errors["2k", "computed"] < 0.05 and 0 < errors["5k", "computed"] < 0.05  # metres

@@ -145,3 +145,16 @@ def test_bad_values_refused_by_the_parser_and_by_the_config():
         TrainConfig(schedule="linear")
     with pytest.raises(ValueError, match="architecture must be one of"):
         TrainConfig(architecture="mlp")
+
+
+def test_bodies_reaches_the_collection(monkeypatch):
+    from opnet import __main__ as cli_module
+    from opnet.data.generators import BODIES
+
+    assert _train_parser()._option_string_actions["--bodies"].choices == list(BODIES)
+    seen = {}
+    monkeypatch.setattr("opnet.data.load_collection", lambda *a, **k: seen.update(k) or "collection")
+    assert cli_module._collection(_parse("--collection", "humans", "--bodies", "shape")) == "collection"
+    assert seen["bodies"] == "shape"
+    with pytest.raises(SystemExit):  # a saved collection's bodies are what they are
+        cli_module._collection(_parse("--collection", "saved.json", "--bodies", "shape"))

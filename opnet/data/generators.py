@@ -72,6 +72,8 @@ def _new_bodies(bodies: str, subject, motion, split, seed: int, draw):
     train = np.flatnonzero(split == "train")
     if bodies == "mixed":  # every other training shape: the others keep their subject's body
         train = train[1::2]
+    if len(train) == 0:
+        raise ValueError(f"bodies={bodies!r} draws bodies for training shapes, and this design has none to draw for.")
     if bodies == "sequence":
         _, which = np.unique(np.stack([subject[train], motion[train]]).astype(str), axis=1, return_inverse=True)
     else:

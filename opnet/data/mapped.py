@@ -48,7 +48,7 @@ from .storage import (
     save_or_warn,
 )
 
-__all__ = ["mapped_collection", "MAPS", "MAP_K"]
+__all__ = ["mapped_collection", "half_mapped", "MAPS", "MAP_K"]
 
 #: How the shapes' other triangulation is mapped onto the base.
 MAPS = ("computed", "true")
@@ -164,6 +164,33 @@ def mapped_collection(
     if save_or_warn(out, stem):  # else the parts stay, and the next call assembles them without recomputing
         _remove_parts(stem)
     return out
+
+
+def half_mapped(collection: Collection, mapped: Collection) -> Collection:
+    """``mapped`` (:func:`mapped_collection` of ``collection``) with every other training shape taken with its exact
+    operators from ``collection`` instead: a network trained on it sees both kinds of operators, as many shapes as
+    either alone. The held-out splits keep the mapped operators, so it is evaluated like ``mapped``.
+
+    Parameters
+    ----------
+    collection : Collection
+        The shapes with their exact operators.
+    mapped : Collection
+        The same shapes, in the same order, with operators through maps.
+
+    Returns
+    -------
+    Collection
+        The held-out shapes and the even training shapes of ``mapped``, then the odd training shapes of
+        ``collection`` (:meth:`Collection.with_training_from`).
+    """
+    if len(mapped) != len(collection) or not np.array_equal(mapped.vertices, collection.vertices):
+        raise ValueError(
+            "mapped must hold collection's shapes in its order (opnet.data.mapped_collection(collection, ...))."
+        )
+    train = collection.indices("train")
+    kept = np.sort(np.r_[np.flatnonzero(collection.split != "train"), train[::2]])
+    return mapped.subset(kept).with_training_from(collection.subset(train[1::2]))
 
 
 def _fingerprint(source: Collection, k: int, ips) -> str:

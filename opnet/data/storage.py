@@ -192,8 +192,14 @@ class Collection:
         """A collection of these shapes and the ``train`` shapes of ``others``, added to its ``train`` split (at
         the end), each with its own operators: the same shapes encoded otherwise (e.g. through computed maps of other
         triangulations, :func:`opnet.data.mapped_collection`), or more shapes. The held-out splits and the evaluation
-        subset are this collection's. ``others`` must have the same base shape, basis, vertex count and channels (names
-        and digests).
+        subset are this collection's. ``others`` must have the same base shape, basis, faces and channels (names and
+        digests). The parameters (``params``) that every part holds are concatenated; the others are dropped (e.g. a
+        mapped collection's ``map_error``).
+
+        Returns
+        -------
+        Collection
+            ``len(self)`` plus the others' training shapes; its ``meta`` lists theirs under ``"training_from"``.
         """
         parts = [self]
         for other in others:
@@ -205,11 +211,13 @@ class Collection:
                 and other.digests == self.digests
                 and other.base_basis.k == self.base_basis.k
                 and np.array_equal(other.base_basis.mesh.vertices, self.base_basis.mesh.vertices)
+                and np.array_equal(other.base_basis.evecs, self.base_basis.evecs)
+                and np.array_equal(other.faces, self.faces)
             )
             if not same:
                 raise ValueError(
                     f"{other!r} cannot lend its training shapes to {self!r}: they need the same base shape, basis "
-                    "size, vertex count and channels (with_kinds gives them the same channels)."
+                    "size and eigenvectors, faces and channels (with_kinds gives them the same channels)."
                 )
             parts.append(other.subset(other.indices("train")))
         if len(parts) == 1:

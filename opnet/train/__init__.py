@@ -105,8 +105,9 @@ def fit(
     lr : Adam's learning rate (the peak one under ``schedule="onecycle"``).
     operator_noise : Gaussian noise added to every training input at every step, per entry ``operator_noise`` times
         that entry's standard deviation over the training operators (OperatorNet only; ``0``, the default: none).
-        A model of a computed map's error, which is of the order of that deviation (docs' results page,
-        "Generalisation"); each epoch's noise is a function of ``seed`` and the epoch, so a resumed run is exact.
+        Meant as a model of a computed map's error, which is of the order of that deviation; the docs' results page
+        ("Generalisation") measures how little white noise models it. Each epoch's noise is a function of ``seed``
+        and the epoch, so a resumed run is exact.
     seed : initialisation and shuffling (epoch ``e`` is shuffled by ``numpy.random.default_rng([seed, e])``).
     device : ``"auto"`` (CUDA when available), ``"cpu"``, ``"cuda"``...
     run_dir : path, optional

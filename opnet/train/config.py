@@ -164,7 +164,7 @@ class TrainConfig:
     operator_noise: float = _option(
         0.0,
         "Gaussian noise on the training operators, in units of each entry's standard deviation over the training "
-        "set (a model of a computed map's error); 0, the default, is none",
+        "set (meant to model a computed map's error); 0, the default, is none",
         type=float,
     )
     seed: int = _option(0, "initialisation and shuffling seed (0)", type=int)

@@ -27,7 +27,7 @@ class TrainData:
 
     def input_std(self) -> torch.Tensor:
         """The per-entry standard deviation of the training inputs ``(C, k, k)`` (the unit of ``operator_noise``)."""
-        return self.train_in.double().std(0).to(self.train_in.dtype)
+        return self.train_in.double().std(0, correction=0).to(self.train_in.dtype)
 
 
 def training_data(collection, channels, pointnet: bool, device) -> TrainData:
