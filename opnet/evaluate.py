@@ -327,7 +327,8 @@ def refined_method(
 def ensemble_method(methods, name: str | None = None) -> Method:
     """The mean of several methods' reconstructions of the same collection (e.g. networks trained with other seeds or
     on other bodies), each first moved rigidly onto the first one's (Kabsch: the loss, eq. 9, leaves each network's
-    placement free). Its rows carry the first method's channels and depth.
+    placement free). Its rows carry the first method's channels and depth; it is evaluated on at most the fewest
+    shapes any member allows (``max_shapes``).
 
     Parameters
     ----------
@@ -345,7 +346,10 @@ def ensemble_method(methods, name: str | None = None) -> Method:
         return np.mean([first, *(rigid_align(m.reconstruct(idx), first) for m in methods[1:])], axis=0)
 
     first = methods[0]
-    return Method(name or f"Ensemble of {len(methods)}", run, first.channels, first.depth)
+    limits = [m.max_shapes for m in methods if m.max_shapes is not None]  # as slow as its slowest member
+    return Method(
+        name or f"Ensemble of {len(methods)}", run, first.channels, first.depth, max_shapes=min(limits, default=None)
+    )
 
 
 def shape_errors(gt, recon, faces, *, batch_size: int = 256) -> dict:

@@ -378,3 +378,10 @@ def test_ensemble_is_invariant_to_each_members_placement(coll):
     )
     with pytest.raises(ValueError, match="two or more"):
         evaluate.ensemble_method([truth])
+
+
+def test_an_ensemble_is_evaluated_on_the_fewest_shapes_its_members_allow(coll):
+    fast = evaluate.Method("fast", lambda idx: coll.vertices[idx].astype(np.float64))
+    slow = evaluate.Method("slow", lambda idx: coll.vertices[idx].astype(np.float64), max_shapes=3)
+    assert evaluate.ensemble_method([fast, slow]).max_shapes == 3
+    assert evaluate.ensemble_method([fast, fast]).max_shapes is None

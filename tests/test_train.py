@@ -409,3 +409,16 @@ def test_ddp_with_two_processes_matches_one_process(coll, tmp_path, cli, options
     for h1, h2 in zip(one["history"], two["history"]):
         assert np.isclose(h1["train_loss"], h2["train_loss"], rtol=1e-4)
         assert np.isclose(h1["val_d_R"], h2["val_d_R"], rtol=1e-4)
+
+
+def test_the_ranks_split_the_global_batch_and_its_noise():
+    from opnet.train.loop import _positions, _shard
+
+    batch = np.array([7, 3, 9, 1, 4])
+    for world in (1, 2, 3, 6):  # every shape's noise row is used once, by the rank that computes that shape
+        parts = [_shard(batch, rank, world) for rank in range(world)]
+        used = [(_positions(batch, part), weight) for part, weight in parts]
+        rows = np.concatenate([p[w > 0] for p, w in used])
+        np.testing.assert_array_equal(np.sort(rows), np.arange(len(batch)))
+        for (part, weight), (pos, _) in zip(parts, used, strict=True):
+            np.testing.assert_array_equal(batch[pos], part)
