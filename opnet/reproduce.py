@@ -80,6 +80,7 @@ from .experiments.report import (
     targets,
     write_results,
 )
+from .experiments.shipped import COLLECTIONS  # the generated collections reproduce runs on (and ships)
 from .shape_difference import KINDS
 
 __all__ = [
@@ -217,8 +218,6 @@ DISCRETISATIONS = (("2k", "true"), ("2k", "computed"), ("5k", "true"), ("5k", "c
 #: :data:`COMP_HALF`'s).
 DISCRETISATION_NETWORKS = ("OperatorNet (Int+Ext)", "OperatorNet (Ext)", *COMP)
 
-#: The generated collections :func:`reproduce` runs on.
-COLLECTIONS = ("humans", "animals")
 
 #: Table 1's name of the PointNet autoencoder (:class:`opnet.model.PointNetAutoencoder`), trained with ``applications``.
 POINTNET = "PointNet AE"
@@ -281,9 +280,10 @@ def reproduce(
     bodies : also the :data:`MORE_BODIES` rows (generated humans, heads, hands; ``None``, the default: for the humans):
         this project's variant trained with more distinct bodies among the training shapes (:func:`bodies_networks`),
         evaluated like Table 1's networks (and refined with them, with ``refine``).
-    collection : one of :data:`COLLECTIONS`: ``"humans"`` (the paper's Table 1 and its numbers beside ours) or
-        ``"animals"`` (:mod:`opnet.data.animals`: the same networks and baselines; the analogies transfer pose and
-        animal type, the interpolations go between species; the paper gives no numbers to set beside them).
+    collection : one of :data:`~opnet.experiments.shipped.COLLECTIONS`: ``"humans"`` (the paper's Table 1 and its
+        numbers beside ours) or ``"animals"`` (:mod:`opnet.data.animals`: the same networks and baselines; the
+        analogies transfer pose and animal type, the interpolations go between species; the paper gives no numbers to
+        set beside them).
     applications : also train the PointNet autoencoder (Table 1's "PointNet AE" row) and run the analogy and
         interpolation benchmarks (:func:`applications_rows`; ``budget.analogies`` questions and ``budget.paths``
         paths per kind).
@@ -394,6 +394,7 @@ def reproduce(
             progress=progress,
             bar=runs,
             extra=info,
+            comp=comp if maps else None,
         )
     context = dict(
         preset=preset,
@@ -633,6 +634,7 @@ def generalisation_rows(
     progress=None,
     bar=None,
     extra: dict | None = None,
+    comp=None,
 ) -> list[dict]:
     """The rows beside Table 1 for generalisation (the docs' results page, "Generalisation"), their networks trained
     in ``out/runs/`` (or loaded when trained there).
@@ -642,7 +644,7 @@ def generalisation_rows(
     (:data:`REFINE`, on :data:`REFINE_SETS`). With ``maps``: the :data:`COMP_HALF` networks, trained on half the
     training shapes through the "Comp" rows' maps (:data:`COMP_RESOLUTION`) and half exact
     (:func:`opnet.data.half_mapped`), on the "Comp" rows' test sets and in the different-discretisation rows
-    (:func:`discretisation_rows`).
+    (:func:`discretisation_rows`). ``comp``: the :func:`comp_networks` collection, reused (loaded when ``None``).
     """
     from .data import half_mapped, mapped_collection
 
@@ -667,7 +669,8 @@ def generalisation_rows(
                 m.info.update(epochs=None, train_seconds=None, device=str(device))
             rows += evaluate(coll, refined, REFINE_SETS, extra=extra)
     if maps:
-        comp = mapped_collection(coll, COMP_RESOLUTION, "computed", root=data_root, progress=progress)
+        if comp is None:
+            comp = mapped_collection(coll, COMP_RESOLUTION, "computed", root=data_root, progress=progress)
         half = half_mapped(coll, comp)
         nets, info = {}, {}
         for s in comp_specs(budget, half=True):

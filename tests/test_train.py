@@ -412,13 +412,11 @@ def test_ddp_with_two_processes_matches_one_process(coll, tmp_path, cli, options
 
 
 def test_the_ranks_split_the_global_batch_and_its_noise():
-    from opnet.train.loop import _positions, _shard
+    from opnet.train.loop import _shard
 
     batch = np.array([7, 3, 9, 1, 4])
     for world in (1, 2, 3, 6):  # every shape's noise row is used once, by the rank that computes that shape
-        parts = [_shard(batch, rank, world) for rank in range(world)]
-        used = [(_positions(batch, part), weight) for part, weight in parts]
+        used = [_shard(batch, rank, world) for rank in range(world)]
         rows = np.concatenate([p[w > 0] for p, w in used])
         np.testing.assert_array_equal(np.sort(rows), np.arange(len(batch)))
-        for (part, weight), (pos, _) in zip(parts, used, strict=True):
-            np.testing.assert_array_equal(batch[pos], part)
+        assert all(len(p) == len(w) >= 1 for p, w in used)  # every rank computes a shape, weighted 0 when not its own

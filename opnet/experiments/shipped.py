@@ -12,7 +12,7 @@ from pathlib import Path
 
 from .report import read_results
 
-__all__ = ["SHIPPED_DIR", "shipped_presets", "shipped_results", "shipped_figure", "shipped_figures"]
+__all__ = ["SHIPPED_DIR", "COLLECTIONS", "shipped_presets", "shipped_results", "shipped_figure", "shipped_figures"]
 
 #: Where the shipped reproductions are: one folder per collection and preset (``default`` for the humans,
 #: ``animals-default`` for the animals), each with ``results.json`` and ``figures/``.

@@ -63,15 +63,15 @@ def placement(device) -> Placement:
 
 
 def _shard(batch: np.ndarray, rank: int, world: int) -> tuple[np.ndarray, np.ndarray]:
-    """The part of a global batch that this rank computes, and the weights of its shapes.
+    """Where the shapes of a global batch that this rank computes stand in ``batch``, and their weights.
 
-    A rank left without a shape gets one with weight 0, so that every process runs forward and backward as DDP
-    requires.
+    A rank left without a shape gets the first one with weight 0, so that every process runs forward and backward as
+    DDP requires.
     """
-    part = np.array_split(batch, world)[rank]
-    if len(part) == 0:
-        return batch[:1], np.zeros(1)
-    return part, np.ones(len(part))
+    positions = np.array_split(np.arange(len(batch)), world)[rank]
+    if len(positions) == 0:
+        return np.zeros(1, dtype=np.int64), np.zeros(1)
+    return positions, np.ones(len(positions))
 
 
 @torch.no_grad()
@@ -83,12 +83,6 @@ def _val_d_R(net, inputs, vertices, batch_size=256, loss=rigid_alignment_loss) -
         total += loss(pred, vertices[s : s + batch_size].double(), reduction="none").sum().item()
     net.train()
     return total / len(inputs)
-
-
-def _positions(batch: np.ndarray, part: np.ndarray) -> np.ndarray:
-    """Where each shape of ``part`` (a rank's share of ``batch``, or its first shape) stands in ``batch``."""
-    where = {int(i): j for j, i in enumerate(batch)}
-    return np.array([where[int(i)] for i in part])
 
 
 def _onecycle(step: int, total: int, lr: float) -> float:
@@ -187,11 +181,12 @@ def run_epochs(
         loss_sum = torch.zeros((), dtype=torch.float64, device=device)
         for s in range(0, n, batch_size):
             batch = order[s : s + batch_size]
-            part, weight = _shard(batch, rank, world)
+            positions, weight = _shard(batch, rank, world)
+            part = batch[positions]
             inputs = data.train_in[part]
             if noise is not None:  # drawn for the global batch, so that the ranks split the same noise
                 drawn = torch.randn((len(batch), *noise.shape), generator=draw, device=device, dtype=noise.dtype)
-                inputs = inputs + drawn[_positions(batch, part)] * noise
+                inputs = inputs + drawn[positions] * noise
             pred = model(inputs)
             finite = torch.isfinite(pred).all()
             # a non-finite output is replaced by zeros for Kabsch; the step is refused below in any case
