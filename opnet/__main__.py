@@ -9,7 +9,7 @@ import sys
 
 
 def _parser() -> argparse.ArgumentParser:
-    from .data.generators import BODIES
+    from .data.generators import BODIES, POSES
     from .train.config import add_arguments
 
     p = argparse.ArgumentParser(
@@ -45,6 +45,14 @@ def _parser() -> argparse.ArgumentParser:
         choices=list(BODIES),
         help="generated humans, heads, hands: a body per training subject (default), or one of its own for each "
         "training sequence, each training shape, or every other training shape (mixed); the same shapes held out",
+    )
+    t.add_argument(
+        "--poses",
+        default="sequence",
+        choices=list(POSES),
+        help="generated humans, heads, hands: the training shapes' poses as designed (motion sequences plus a few "
+        "random poses; default), a random pose instead for every fourth (quarter) or every other (mixed) training "
+        "shape of a motion sequence, or for every training shape (random); the same shapes held out",
     )
     add_arguments(t)  # the hyper-parameters: one option per field of opnet.train.TrainConfig
     t.add_argument("--run-dir", required=True, help="folder for config.json, latest.pt, best.pt, history.json")
@@ -163,8 +171,9 @@ def _collection(args):
     from .data.generators import GENERATORS
 
     if args.collection.endswith(".json"):
-        if getattr(args, "bodies", "subject") != "subject":
-            _parser().error("--bodies draws new bodies for a generated collection, not for a saved .json one")
+        for key, default in (("bodies", "subject"), ("poses", "sequence")):
+            if getattr(args, key, default) != default:
+                _parser().error(f"--{key} draws new {key} for a generated collection, not for a saved .json one")
         return read_collection(args.collection)
     if args.collection not in GENERATORS:
         _parser().error(
@@ -178,6 +187,7 @@ def _collection(args):
         resolution=args.resolution,
         seed=args.data_seed,
         bodies=getattr(args, "bodies", "subject"),
+        poses=getattr(args, "poses", "sequence"),
     )
 
 
@@ -259,7 +269,15 @@ def _run(args) -> int:
         if args.collection:
             coll = read_collection(args.collection)
         elif d["preset"] in ("quick", "default", "paper"):
-            coll = load_collection(d["name"], d["preset"], args.data_root, resolution=d["resolution"], seed=d["seed"])
+            coll = load_collection(
+                d["name"],
+                d["preset"],
+                args.data_root,
+                resolution=d["resolution"],
+                seed=d["seed"],
+                bodies=d.get("bodies", "subject"),
+                poses=d.get("poses", "sequence"),
+            )
         else:
             _parser().error(
                 f"{args.run_dir} was trained on {d['name']!r}, not a generated collection: pass its "

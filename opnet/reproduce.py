@@ -20,7 +20,9 @@ and writes (keeping the rows of an earlier call into ``OUT`` that this one does 
 With ``maps=True`` (default) it also computes maps from the 2k-vertex version of every shape onto the base
 (:func:`opnet.data.mapped_collection`), trains Table 1's "Comp" rows on the operators through them (:data:`COMP`),
 and reconstructs test shapes given on other triangulations (:func:`discretisation_rows`: rows with ``"table"``
-``"discretisation"``, and ``OUT/figures/discretisation.png``).
+``"discretisation"``, and ``OUT/figures/discretisation.png``). With ``maps`` or ``bodies`` (default for the humans),
+the rows beside Table 1 for generalisation (:func:`generalisation_rows`) and ``OUT/figures/generalisation.png``
+(:func:`generalisation_figure`).
 
 With ``applications=True`` (default) it also trains the PointNet autoencoder (a Table 1 row) and runs the
 ground-truth analogy and interpolation benchmarks of :mod:`opnet.apps` (rows with ``"table"`` ``"analogy"`` and
@@ -39,7 +41,7 @@ import json
 import os
 import platform
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +52,7 @@ from ._extras import require
 from .evaluate import (
     TEST_SETS,
     base_shape_method,
+    ensemble_method,
     evaluate,
     evenly_spaced,
     geometric_method,
@@ -65,6 +68,7 @@ from .experiments.figures import (
     ablation_figure,
     application_figures,
     discretisation_figure,
+    generalisation_figure,
     refinement_figures,
     snapshot_steps,
     table1_figures,
@@ -97,6 +101,7 @@ __all__ = [
     "discretisation_rows",
     "discretisation_indices",
     "discretisation_figure",
+    "generalisation_figure",
     "application_methods",
     "applications_rows",
     "applications_markdown",
@@ -117,6 +122,7 @@ __all__ = [
     "COMP_HALF",
     "MORE_BODIES",
     "bodies_specs",
+    "bodies_group",
     "bodies_networks",
     "generalisation_rows",
     "DISCRETISATIONS",
@@ -209,9 +215,18 @@ COMP_RESOLUTION = "2k"
 COMP_HALF = {"OperatorNet (Comp + 1k)(Ext)": ("extrinsic",)}
 #: Rows beside Table 1 for unseen bodies (the docs' results page, "Generalisation"): this project's variant trained on
 #: the collection with more distinct bodies among its training shapes (:func:`opnet.data.load_collection`'s
-#: ``bodies``; the held-out shapes are the same), chosen on the validation bodies by ``benchmarks/generalisation.py``:
-#: name → ``bodies``.
-MORE_BODIES = {"OperatorNet ours, a body per shape (Int+Ext)": "shape"}
+#: ``bodies``, and ``poses``: more random poses; the held-out shapes are the same), chosen on the validation bodies by
+#: ``benchmarks/generalisation.py``: name → the collection's draws (``load_collection``'s keywords) and, for an
+#: ensemble (:func:`opnet.evaluate.ensemble_method`) of the networks trained with seeds 0, 1, ..., their count
+#: (``seeds``). A row holds these fields.
+MORE_BODIES = {
+    "OperatorNet ours, a body per shape (Int+Ext)": {"bodies": "shape"},
+    "OperatorNet ours, a body per shape, more random poses, 2 seeds (Int+Ext)": {
+        "bodies": "shape",
+        "poses": "quarter",
+        "seeds": 2,
+    },
+}
 #: The different-discretisation rows: test shapes on these meshes, mapped onto the 1k base by these maps.
 DISCRETISATIONS = (("2k", "true"), ("2k", "computed"), ("5k", "true"), ("5k", "computed"))
 #: The networks that decode them (Table 1's and :data:`COMP`'s names; :func:`generalisation_rows` adds
@@ -326,7 +341,7 @@ def reproduce(
         + len(OURS)
         + bool(applications)
         + (len(COMP) + len(COMP_HALF) if maps else 0)
-        + (len(MORE_BODIES) if bodies else 0)
+        + (len(bodies_specs(budget)) if bodies else 0)
         + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0),
         desc="reproduce",
         unit="network",
@@ -355,7 +370,7 @@ def reproduce(
     matching = []
     funcchar = []
     if refine:
-        options = dict(REFINE, steps=budget.refine_steps, max_shapes=budget.refine_shapes, device=device)
+        options = _refine_options(budget, device)
         matching = [geometric_method(coll, **options)]
         tags.append(dict(baseline="geometric"))
         refined = [m for m in methods if m.channels == KINDS]
@@ -365,7 +380,7 @@ def reproduce(
         funcchar = [funcchar_method(with_offsets, budget, device=device)]  # evaluated on with_offsets
         tags.append(dict(baseline="funcchar"))
     for m, tag in zip(baselines + matching + funcchar, tags, strict=True):
-        m.info = dict(table="table1", **tag, epochs=None, train_seconds=None, device=str(device))
+        m.info = _untrained_info(tag, device)
     rows = evaluate(coll, methods + baselines, test_sets_for(coll), extra=info)  # animals: also the unseen species
     rows += evaluate(comp, comp_methods, TEST_SETS, extra=info) if maps else []
     rows += evaluate(coll, matching, REFINE_SETS, extra=info)
@@ -436,12 +451,14 @@ def reproduce(
             m.info = dict(table="ablation", **s.fields(), **run_info)
             rows += evaluate(coll, [m], ("test",), extra=info)
     rows = save(rows)
-    if ablation and figures:
+    drawn = {"ablation": ablation_figure} if ablation else {}
+    drawn |= {"generalisation": generalisation_figure} if bodies or maps else {}
+    if figures and drawn:
         plt = require("matplotlib.pyplot", "opnet.reproduce's figures")
-
-        fig = ablation_figure(rows)
-        fig.savefig(out / "figures" / "ablation.png", dpi=120)
-        plt.close(fig)
+        for name, draw in drawn.items():
+            fig = draw(rows)
+            fig.savefig(out / "figures" / f"{name}.png", dpi=120)
+            plt.close(fig)
     runs.close()
     return rows
 
@@ -585,40 +602,79 @@ def comp_specs(budget: Budget, *, half: bool = False) -> list:
     return [spec("comp", budget, channels, name=name) for name, channels in COMP.items()]
 
 
-def bodies_specs(budget: Budget) -> list:
-    """The declared runs of :data:`MORE_BODIES` (this project's variant, group ``"bodies-<bodies>"``: trained on
-    ``load_collection(..., bodies=<bodies>)``), each named by its row.
+def bodies_group(bodies: str, poses: str = "sequence") -> str:
+    """The :class:`~opnet.experiments.RunSpec` group of a run trained on ``load_collection(..., bodies=, poses=)``:
+    ``"bodies-<bodies>"``, then ``"-poses-<poses>"`` unless the poses are the design's.
     """
-    return [spec(f"bodies-{kind}", budget, KINDS, variant="ours", name=name) for name, kind in MORE_BODIES.items()]
+    return f"bodies-{bodies}" + ("" if poses == "sequence" else f"-poses-{poses}")
+
+
+def bodies_specs(budget: Budget) -> list:
+    """The declared runs of :data:`MORE_BODIES` (this project's variant, group :func:`bodies_group`: trained on
+    ``load_collection(..., bodies=, poses=)``), each named by its row; an ensemble's further seeds by its row and
+    ``", seed <s>"``.
+    """
+    return [s for seeds in _bodies_members(budget).values() for s in seeds]
+
+
+def _bodies_members(budget: Budget) -> dict:
+    """Each :data:`MORE_BODIES` row's declared runs, one per seed: name → list of specs."""
+    out = {}
+    for name, entry in MORE_BODIES.items():
+        first = spec(bodies_group(**_draws(entry)), budget, KINDS, variant="ours", name=name)
+        out[name] = [
+            first,
+            *(replace(first, seed=s, name=f"{name}, seed {s}") for s in range(1, entry.get("seeds", 1))),
+        ]
+    return out
+
+
+def _draws(entry: dict) -> dict:
+    """The ``load_collection`` keywords of a :data:`MORE_BODIES` entry."""
+    return {k: v for k, v in entry.items() if k in ("bodies", "poses")}
 
 
 def bodies_networks(coll, out, budget: Budget, *, device="cpu", progress=None, bar=None, data_root=None) -> tuple:
     """The :data:`MORE_BODIES` networks, trained in ``out/runs/bodies-*`` (or loaded when trained there), each on the
-    generated collection ``coll`` with other bodies among its training shapes (``bodies=``; the held-out shapes are
-    ``coll``'s, checked); like :func:`table1_networks`, dicts name → network, name → history, name → run info (with
-    ``bodies``).
+    generated collection ``coll`` with other bodies (and poses) among its training shapes (``bodies=``, ``poses=``; the
+    held-out shapes are ``coll``'s, checked): dicts name → its networks (one per seed), name → their histories,
+    name → run info (the first seed's, with the seeds' summed ``train_seconds`` and the entry's fields).
     """
     from .data import load_collection
 
     meta = coll.meta
     nets, histories, info = {}, {}, {}
-    for s in bodies_specs(budget):
-        kind = MORE_BODIES[s.name]
+    for name, specs in _bodies_members(budget).items():
+        draws = _draws(MORE_BODIES[name])
         more = load_collection(
             meta["name"],
             meta["preset"],
             data_root,
             resolution=meta["resolution"],
             seed=meta["seed"],
-            bodies=kind,
             progress=progress,
+            **draws,
         )
         held = coll.split != "train"
         if not (np.array_equal(more.split, coll.split) and np.array_equal(more.vertices[held], coll.vertices[held])):
-            raise ValueError(f"the collection with bodies={kind!r} does not hold {coll!r}'s held-out shapes.")
-        nets[s.name], histories[s.name], info[s.name] = _train(more, out, s, device=device, progress=progress, bar=bar)
-        info[s.name] = dict(info[s.name], bodies=kind)
+            raise ValueError(f"the collection with {draws} does not hold {coll!r}'s held-out shapes.")
+        trained = [_train(more, out, s, device=device, progress=progress, bar=bar) for s in specs]
+        nets[name], histories[name] = [t[0] for t in trained], [t[1] for t in trained]
+        seconds = sum(t[2]["train_seconds"] for t in trained)
+        info[name] = dict(trained[0][2], train_seconds=seconds, **MORE_BODIES[name])
     return nets, histories, info
+
+
+def _refine_options(budget: Budget, device) -> dict:
+    """The operator-matching options of Table 1's refinement rows and the geometric baseline at ``budget``."""
+    return dict(REFINE, steps=budget.refine_steps, max_shapes=budget.refine_shapes, device=device)
+
+
+def _untrained_info(fields: dict, device) -> dict:
+    """The ``info`` of a Table 1 row that trains nothing of its own (a baseline, a refinement): ``fields`` and the
+    device, no epochs or training time.
+    """
+    return dict(table="table1", **fields, epochs=None, train_seconds=None, device=str(device))
 
 
 def generalisation_rows(
@@ -659,14 +715,16 @@ def generalisation_rows(
         nets, _, info = bodies_networks(
             coll, out, budget, device=device, progress=progress, bar=bar, data_root=data_root
         )
-        methods = described([operatornet_method(net, coll, name) for name, net in nets.items()], info)
+        methods = []
+        for name, members in nets.items():  # one network, or the ensemble of its seeds'
+            each = [operatornet_method(net, coll, name) for net in members]
+            methods.append(each[0] if len(each) == 1 else ensemble_method(each, name))
+        methods = described(methods, info)
         rows += evaluate(coll, methods, TEST_SETS, extra=extra)
         if refine:
-            options = dict(REFINE, steps=budget.refine_steps, max_shapes=budget.refine_shapes, device=device)
-            refined = [refined_method(m, coll, **options) for m in methods]
+            refined = [refined_method(m, coll, **_refine_options(budget, device)) for m in methods]
             for m, name in zip(refined, nets, strict=True):
-                m.info = dict(table="table1", **specs[name].refined_fields(), bodies=MORE_BODIES[name])
-                m.info.update(epochs=None, train_seconds=None, device=str(device))
+                m.info = _untrained_info(dict(specs[name].refined_fields(), **MORE_BODIES[name]), device)
             rows += evaluate(coll, refined, REFINE_SETS, extra=extra)
     if maps:
         if comp is None:

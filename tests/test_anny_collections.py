@@ -121,14 +121,20 @@ def test_part_collections(root, quick_collection, name, n_vertices, motions):
         opnet.data.load_collection(name, "quick", root, resolution="2k")
 
 
-@pytest.mark.parametrize("bodies", ["sequence", "shape", "mixed"])
-def test_more_bodies_same_shapes_held_out(humans, root, bodies):
-    more = opnet.data.load_collection("humans", "quick", root, bodies=bodies, progress=False)
+def _same_held_out(humans, root, **draws):
+    """The quick humans with ``draws`` (``load_collection``'s bodies, poses), checked to hold the same shapes out."""
+    more = opnet.data.load_collection("humans", "quick", root, progress=False, **draws)
     assert len(more) == len(humans) and (more.split == humans.split).all()
     held = humans.split != "train"  # val and the test sets: the same shapes, bit for bit
     assert np.array_equal(more.vertices[held], humans.vertices[held])
     assert np.array_equal(more.operators[held], humans.operators[held])
     assert np.array_equal(more.eval_subset, humans.eval_subset)
+    return more
+
+
+@pytest.mark.parametrize("bodies", ["sequence", "shape", "mixed"])
+def test_more_bodies_same_shapes_held_out(humans, root, bodies):
+    more = _same_held_out(humans, root, bodies=bodies)
     train = humans.split == "train"
     np.testing.assert_array_equal(more.params["controls"], humans.params["controls"])  # the same poses
     kept = np.isclose(more.params["phenotypes"], humans.params["phenotypes"]).all(1)
@@ -150,8 +156,30 @@ def test_more_bodies_same_shapes_held_out(humans, root, bodies):
     assert (root / (opnet.data.generators.stem_name(more.meta) + ".json")).is_file()
 
 
+@pytest.mark.parametrize("poses", ["quarter", "mixed", "random"])
+def test_more_random_poses_same_shapes_held_out(humans, root, poses):
+    more = _same_held_out(humans, root, poses=poses)
+    np.testing.assert_array_equal(more.params["phenotypes"], humans.params["phenotypes"])  # the same bodies
+    moving = np.flatnonzero((humans.split == "train") & (humans.params["motion"] != "random"))
+    new = {"quarter": moving[1::4], "mixed": moving[1::2], "random": moving}[poses]
+    changed = ~np.isclose(more.params["controls"], humans.params["controls"]).reshape(len(humans), -1).all(1)
+    np.testing.assert_array_equal(np.flatnonzero(changed), new)  # exactly these shapes re-posed
+    assert (more.params["motion"][new] == "random").all() and (more.params["frame"][new] == -1).all()
+    kept = np.setdiff1d(np.arange(len(humans)), new)
+    np.testing.assert_array_equal(more.params["motion"][kept], humans.params["motion"][kept])
+    assert set(more.subcollection[new]) == {f"{s}/random" for s in more.subject[new]}
+    assert more.meta["poses"] == poses and "poses" not in humans.meta
+    both = opnet.data.load_collection("humans", "quick", root, bodies="shape", poses=poses, progress=False)
+    assert np.array_equal(both.params["controls"], more.params["controls"])  # the draws are independent
+    assert opnet.data.generators.stem_name(both.meta).endswith(f"-bodies-shape-poses-{poses}")
+
+
 def test_bodies_refused(root):
     with pytest.raises(ValueError, match="bodies must be one of"):
         opnet.data.load_collection("humans", "quick", root, bodies="person")
     with pytest.raises(ValueError, match="animals' bodies are blends"):
         opnet.data.load_collection("animals", "quick", root, bodies="shape")
+    with pytest.raises(ValueError, match="poses must be one of"):
+        opnet.data.load_collection("humans", "quick", root, poses="dance")
+    with pytest.raises(ValueError, match="their poses come from their clips"):
+        opnet.data.load_collection("animals", "quick", root, poses="random")

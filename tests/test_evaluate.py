@@ -141,13 +141,17 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
         for s in reproduce.REFINE_SETS
     }
     more = [r for r in t1 if r["method"] in reproduce.MORE_BODIES]  # our variant on more bodies: its rows say which
-    assert {r["bodies"] for r in more} == set(reproduce.MORE_BODIES.values()) and {r["group"] for r in more} == {
-        f"bodies-{kind}" for kind in reproduce.MORE_BODIES.values()
-    }
+    assert {r["method"] for r in more} == set(reproduce.MORE_BODIES)
+    for r in more:
+        entry = reproduce.MORE_BODIES[r["method"]]
+        assert {k: r[k] for k in ("bodies", "poses", "seeds") if k in r} == entry
+        assert r["group"] == reproduce.bodies_group(**{k: v for k, v in entry.items() if k != "seeds"})
+    seeds = sum(entry.get("seeds", 1) for entry in reproduce.MORE_BODIES.values())
+    assert len(reproduce.bodies_specs(budget)) == seeds > len(reproduce.MORE_BODIES)  # an ensemble's seeds: trained
     refined = [r for r in t1 if r.get("refined") or r.get("baseline") in ("geometric", "funcchar")]
-    assert len(refined) == 10 and {tuple(r["channels"]) for r in refined if r.get("baseline") == "funcchar"} == {
-        reproduce.FUNCCHAR
-    }
+    assert len(refined) == 8 + 2 * len(reproduce.MORE_BODIES) and {
+        tuple(r["channels"]) for r in refined if r.get("baseline") == "funcchar"
+    } == {reproduce.FUNCCHAR}
     assert all(r["n_shapes"] == 3 for r in refined)  # at most refine_shapes per test set
     assert all(np.isfinite(r["d_R_before"]) for r in refined if r["method"].endswith("refinement"))
     abl = [r for r in saved if r["table"] == "ablation"]
@@ -183,7 +187,7 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     # a second call trains nothing more: every run is finished
     mtimes = {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
-    assert len(mtimes) == 33
+    assert len(mtimes) == 32 + seeds
     reproduce.reproduce(
         "quick", tmp_path, budget=budget, device="cpu", progress=False, figures=False, applications=False, maps=False
     )
@@ -210,7 +214,7 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
         return r["table"] == "ablation" or r.get("refined") or r.get("baseline") in ("geometric", "funcchar")
 
     kept = [r for r in merged if not_measured_again(r)]
-    assert kept == [r for r in saved if not_measured_again(r)] and len(kept) == 28 + 10  # as the second call wrote
+    assert kept == [r for r in saved if not_measured_again(r)] and len(kept) == 28 + len(refined)  # as written
     md = (tmp_path / "results.md").read_text()
     assert context["earlier"][0]["tables"] == ["ablation", "table1"] and "earlier call" in md
     assert [r["method"] for r in merged if r["table"] == "table1"][0] == "OperatorNet (Int+Ext)"  # kept in place
@@ -330,7 +334,8 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
     get = {(r["resolution"], r["maps"], r["method"]): r["d_R"] for r in disc}
     ratio = get["5k", "computed", "OperatorNet (Ext)"] / get["1k", "exact", "OperatorNet (Int+Ext)"]
     assert f"- OperatorNet (Ext): {1e4 * get['5k', 'computed', 'OperatorNet (Ext)']:.3g}, {ratio:.1f}×" in md
-    assert (tmp_path / "figures" / "discretisation.png").stat().st_size > 1000
+    for name in ("discretisation", "generalisation"):
+        assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     with pytest.raises(ValueError, match="generated 1k humans|not made by a generator"):
         reproduce.comp_networks(tiny_collection("humans"), tmp_path, budget)
     with pytest.raises(ValueError, match="shapes must be"):

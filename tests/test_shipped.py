@@ -97,3 +97,49 @@ def test_the_shipped_animals_hold_table1_nn_and_the_applications():
     assert shipped.shipped_figure("analogy_body", collection="animals").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(FileNotFoundError, match="--collection animals"):
         shipped.shipped_results("paper", "animals")
+
+
+def test_the_generalisation_figure_draws_the_rows_it_names():
+    """generalisation_figure (the shipped generalisation.png): the bars are the rows' d_R of the networks on the three
+    operators (and their refinements), not the Comp ones; the lines the discretisation rows'; the targets 1.5x / 3x
+    the paper's network's 1k error."""
+    pytest.importorskip("matplotlib")
+    import matplotlib.pyplot as plt
+
+    from opnet.experiments.figures import generalisation_figure
+
+    rows, _ = shipped.shipped_results("default")
+    fig = generalisation_figure(rows)
+    left, right = fig.axes
+    bars = [b.get_height() for c in left.containers for b in c]
+    beside = {r["run"] for r in rows if r.get("group", "").startswith("bodies-")}  # reproduce.MORE_BODIES' networks
+    runs = {"table1-A+E+C-d1", "table1-A+E+C-d1-ours", *beside}
+    wanted = [
+        r
+        for r in rows
+        if r.get("table") == "table1" and r.get("run") in runs and r["split"] in ("test", "test_subjects")
+    ]
+    assert len(beside) == 2 and len(bars) == len(wanted) == 4 * len(runs)  # each network and refined, on both sets
+    np.testing.assert_allclose(sorted(bars), sorted(1e4 * r["d_R"] for r in wanted))
+    disc = [r for r in rows if r.get("table") == "discretisation"]
+    lines = [line for line in right.get_lines() if len(line.get_xdata()) > 2]
+    assert len(lines) == len({r["method"] for r in disc})
+    np.testing.assert_allclose(
+        sorted(np.concatenate([line.get_ydata() for line in lines])), sorted(1e4 * r["d_R"] for r in disc)
+    )
+    ref = next(
+        r
+        for r in disc
+        if r["resolution"] == "1k"
+        and r.get("group") == "table1"
+        and r["variant"] == "paper"
+        and len(r["channels"]) == 3
+    )
+    targets = sorted(line.get_ydata()[0] for line in right.get_lines() if len(line.get_xdata()) == 2)
+    np.testing.assert_allclose(targets, [1.5e4 * ref["d_R"], 3e4 * ref["d_R"]])
+    plt.close(fig)
+    alone = generalisation_figure([r for r in rows if r.get("table") == "discretisation"])  # a panel per kind of rows
+    assert len(alone.axes) == 1 and len(alone.axes[0].get_lines()) == len(lines) + 2
+    plt.close(alone)
+    with pytest.raises(ValueError, match="nothing to draw"):
+        generalisation_figure([r for r in rows if r.get("table") == "ablation"])

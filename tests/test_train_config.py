@@ -8,6 +8,7 @@ pytest.importorskip("torch")  # the net extra: skipped by a core-only install
 import dataclasses
 import inspect
 
+import opnet
 from opnet import train
 from opnet.__main__ import _parser, main
 from opnet.train import TrainConfig
@@ -37,6 +38,7 @@ OTHERS = {
     "--resolution",
     "--data-seed",
     "--bodies",
+    "--poses",
     "--run-dir",
     "--restart",
     "--data-root",
@@ -147,14 +149,44 @@ def test_bad_values_refused_by_the_parser_and_by_the_config():
         TrainConfig(architecture="mlp")
 
 
-def test_bodies_reaches_the_collection(monkeypatch):
+def test_bodies_and_poses_reach_the_collection(monkeypatch):
     from opnet import __main__ as cli_module
-    from opnet.data.generators import BODIES
+    from opnet.data.generators import BODIES, POSES
 
     assert _train_parser()._option_string_actions["--bodies"].choices == list(BODIES)
+    assert _train_parser()._option_string_actions["--poses"].choices == list(POSES)
     seen = {}
     monkeypatch.setattr("opnet.data.load_collection", lambda *a, **k: seen.update(k) or "collection")
-    assert cli_module._collection(_parse("--collection", "humans", "--bodies", "shape")) == "collection"
-    assert seen["bodies"] == "shape"
-    with pytest.raises(SystemExit):  # a saved collection's bodies are what they are
-        cli_module._collection(_parse("--collection", "saved.json", "--bodies", "shape"))
+    words = ("--collection", "humans", "--bodies", "shape", "--poses", "quarter")
+    assert cli_module._collection(_parse(*words)) == "collection"
+    assert seen["bodies"] == "shape" and seen["poses"] == "quarter"
+    for flag, value in (("--bodies", "shape"), ("--poses", "mixed")):
+        with pytest.raises(SystemExit):  # a saved collection's bodies and poses are what they are
+            cli_module._collection(_parse("--collection", "saved.json", flag, value))
+
+
+def test_a_run_records_its_collections_draws(humans, root):
+    """The data part of a run's config names the generated collection's draws (bodies, poses), so that `opnet
+    evaluate` loads the collection it was trained on; the collection as designed records none (older runs match)."""
+    from opnet.train.rundir import _data_config, comparable
+
+    more = opnet.data.load_collection("humans", "quick", root, bodies="shape", poses="quarter", progress=False)
+    assert {k: _data_config(more, ["area"])[k] for k in ("bodies", "poses")} == {"bodies": "shape", "poses": "quarter"}
+    assert not {"bodies", "poses"} & set(_data_config(humans, ["area"]))
+    # information, not compared: a run saved before the draws were recorded resumes and loads (the fingerprint, which
+    # covers the operators, tells other draws apart)
+    recorded = _data_config(more, ["area"])
+    older = {k: v for k, v in recorded.items() if k not in ("bodies", "poses")}
+    assert comparable(older) == comparable(recorded) and comparable(recorded) != comparable(
+        _data_config(humans, ["area"])
+    )
+
+
+def test_a_run_is_named_by_its_options_values():
+    """The run folder of a spec: its options digested by value (1 and 1.0 are one training), not by their spelling."""
+    from opnet.experiments import RunSpec
+
+    one, same = (RunSpec(channels=("extrinsic",), options={"operator_noise": v}) for v in (1, 1.0))
+    assert one.run_name == same.run_name != RunSpec(channels=("extrinsic",)).run_name
+    assert one.run_name != RunSpec(channels=("extrinsic",), options={"operator_noise": 0.25}).run_name
+    assert RunSpec(channels=("extrinsic",), options={"standardize": True}).run_name != one.run_name

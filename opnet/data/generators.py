@@ -32,6 +32,7 @@ __all__ = [
     "interpolate_controls",
     "resolution_map",
     "BODIES",
+    "POSES",
 ]
 
 #: Bumped when a generator changes what it produces: cached collections then no longer match.
@@ -63,6 +64,13 @@ PRESETS = {
 #: the test sets are the same shapes whatever the choice: only the number of distinct bodies the network trains on
 #: changes, not the number of shapes.
 BODIES = ("subject", "sequence", "shape", "mixed")
+#: How the training shapes of a generated collection get their poses (``load_collection(poses=)``): ``"sequence"`` (the
+#: collections' design: each subject performs every motion, plus a few random poses), ``"quarter"`` (every fourth
+#: training shape of a motion sequence gets a random pose instead), ``"mixed"`` (every other one: those of
+#: ``"quarter"`` and as many more) or ``"random"`` (every training shape a random pose). The random poses (or
+#: expressions, or hand poses) come from the function the held-out random shapes come from, drawn from a stream of
+#: their own; as with :data:`BODIES`, the held-out shapes and the shape count stay the same.
+POSES = ("sequence", "quarter", "mixed", "random")
 
 
 def _new_bodies(bodies: str, subject, motion, split, seed: int, draw):
@@ -79,6 +87,13 @@ def _new_bodies(bodies: str, subject, motion, split, seed: int, draw):
     else:
         which = np.arange(len(train))
     return train, which.ravel(), draw(int(which.max()) + 1, np.random.default_rng([seed, 1]))
+
+
+def _new_poses(poses: str, motion, split) -> np.ndarray:
+    """The training shapes that :data:`POSES`' ``poses`` gives a random pose instead of their sequence's."""
+    reposed = np.flatnonzero((split == "train") & (motion != "random"))
+    step = {"quarter": 4, "mixed": 2}.get(poses)  # "random": every one
+    return reposed if step is None else reposed[1::step]
 
 
 def _design(preset: Preset, motions, rng: np.random.Generator):
@@ -122,11 +137,13 @@ def _build(
     faces,
     reference=None,
     bodies: str = "subject",
+    poses: str = "sequence",
 ):
     """A collection: ``sequence(motion, n_frames, amplitude=, offset=)`` and ``random(n, rng)`` give per-shape
     controls (poses or expression weights), ``evaluate(subjects, controls)`` the vertices; ``rest`` is the
     base's control. ``reference(subjects, controls)``, if given, evaluates the shapes on which the
-    evaluation subset is chosen (so that every resolution gets the same subset). ``bodies``: :data:`BODIES`.
+    evaluation subset is chosen (so that every resolution gets the same subset). ``bodies``: :data:`BODIES`;
+    ``poses``: :data:`POSES`.
     """
     p = PRESETS[preset]
     rng = np.random.default_rng(seed)
@@ -149,6 +166,15 @@ def _build(
                 m, p.frames, amplitude=amplitude[s], offset=offset[s, j]
             )
         controls[(subject == s) & (motion == "random")] = random(p.random, rng)
+    if poses != "sequence":  # random poses for training shapes, from a stream of their own: the other draws unchanged
+        reposed = _new_poses(poses, motion, split)
+        if len(reposed) == 0:
+            raise ValueError(f"poses={poses!r} re-poses training shapes of motions, and this design has none.")
+        controls[reposed] = random(len(reposed), np.random.default_rng([seed, 2]))
+        motion, frame, sub = motion.astype(object), frame.copy(), sub.astype(object)
+        motion[reposed], frame[reposed] = "random", -1  # no longer a frame of a motion
+        sub[reposed] = [f"{n}/random" for n in names[reposed]]
+        motion, sub = motion.astype(str), sub.astype(str)
     vertices = evaluate(phenotypes, controls)
     base = evaluate(np.array([AVERAGE_SUBJECT]), rest[None])[0]
     params = dict(phenotypes=phenotypes, motion=motion, frame=frame, controls=controls.astype(np.float32))
@@ -181,7 +207,7 @@ def shape_count(name: str, preset: str) -> int:
     return p.subjects * (len(MOTIONS[name]) * p.frames + p.random)
 
 
-def _humans(preset, resolution, seed, meta, progress=None, bodies="subject"):
+def _humans(preset, resolution, seed, meta, progress=None, **draws):
     one_k = None if resolution == "1k" else _evaluator("humans", "1k")
     return _build(
         preset,
@@ -195,11 +221,11 @@ def _humans(preset, resolution, seed, meta, progress=None, bodies="subject"):
         rest=humans.rest_pose(),
         faces=humans.human_faces(resolution),
         reference=one_k,
-        bodies=bodies,
+        **draws,
     )
 
 
-def _heads(preset, resolution, seed, meta, progress=None, bodies="subject"):
+def _heads(preset, resolution, seed, meta, progress=None, **draws):
     return _build(
         preset,
         seed,
@@ -211,11 +237,11 @@ def _heads(preset, resolution, seed, meta, progress=None, bodies="subject"):
         evaluate=_evaluator("heads", resolution),
         rest=np.zeros(len(heads.FACIAL_ACTIONS)),
         faces=heads.head_faces(),
-        bodies=bodies,
+        **draws,
     )
 
 
-def _hands(preset, resolution, seed, meta, progress=None, bodies="subject"):
+def _hands(preset, resolution, seed, meta, progress=None, **draws):
     return _build(
         preset,
         seed,
@@ -227,7 +253,7 @@ def _hands(preset, resolution, seed, meta, progress=None, bodies="subject"):
         evaluate=_evaluator("hands", resolution),
         rest=hands.hand_poses({}, 1)[0],
         faces=hands.hand_faces(),
-        bodies=bodies,
+        **draws,
     )
 
 
@@ -356,6 +382,7 @@ def stem_name(meta: dict) -> str:
     """
     stem = f"{meta['name']}-{meta['preset']}-{meta['resolution']}-seed{meta['seed']}-v{meta['generator_version']}"
     stem += f"-bodies-{meta['bodies']}" if "bodies" in meta else ""
+    stem += f"-poses-{meta['poses']}" if "poses" in meta else ""
     return stem + (f"-{meta['builder'][:8]}" if "builder" in meta else "")
 
 
@@ -370,6 +397,7 @@ def load_collection(
     progress: bool | None = None,
     kinds=None,
     bodies: str = "subject",
+    poses: str = "sequence",
 ) -> Collection:
     """The collection ``name`` (``"humans"``, ``"heads"``, ``"hands"`` or ``"animals"``) at ``preset``, built if
     missing.
@@ -383,6 +411,11 @@ def load_collection(
     ``kinds``: the channels wanted (names or inner products, in order; default :data:`opnet.KINDS`). The collection
     is built and stored with the paper's three; others are added by :meth:`Collection.with_kinds` and cached beside
     it, so asking for a new channel never rebuilds the shapes.
+
+    ``bodies`` (:data:`BODIES`) and ``poses`` (:data:`POSES`), generated humans, heads and hands: the training
+    shapes' bodies and poses drawn anew (more distinct bodies, more random poses) at the same shape count; ``val``
+    and the test sets stay the same shapes, bit for bit. Each choice is a collection of its own (``-bodies-<kind>``,
+    ``-poses-<kind>`` in the file name).
     """
     if name not in GENERATORS:
         raise ValueError(
@@ -400,16 +433,17 @@ def load_collection(
         raise ValueError(f"seed must be an integer, got {seed!r}.") from None
     root = Path(root) if root is not None else default_root()
     meta = dict(name=name, preset=preset, resolution=resolution, seed=seed, generator_version=GENERATOR_VERSION)
-    if bodies not in BODIES:
-        raise ValueError(f"bodies must be one of {list(BODIES)}, got {bodies!r}.")
     extra = {}
-    if bodies != "subject":
-        if name == "animals":
-            raise ValueError(
-                "bodies= draws new human, head or hand bodies; the animals' bodies are blends of their species: "
-                "leave bodies='subject' for them."
-            )
-        meta["bodies"] = extra["bodies"] = bodies
+    for key, value, options in (("bodies", bodies, BODIES), ("poses", poses, POSES)):
+        if value not in options:
+            raise ValueError(f"{key} must be one of {list(options)}, got {value!r}.")
+        if value != options[0]:
+            if name == "animals":
+                raise ValueError(
+                    f"{key}= draws new human, head or hand {key}; the animals' bodies are blends of their species "
+                    f"and their poses come from their clips: leave {key}={options[0]!r} for them."
+                )
+            meta[key] = extra[key] = value
     if name == "animals":  # keyed by their code and the asset package's version; the registrations kept in root
         meta["builder"] = animals.builder_digest()
         extra["root"] = root

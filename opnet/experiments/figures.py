@@ -1,6 +1,6 @@
 """The reproduction's figures (PNG, under ``OUT/figures``): training curves and reconstructions coloured by error,
 the ablation's heat map, the applications' interpolation strips and analogy grids, refinement curves and steps, and
-shapes given on other triangulations.
+shapes given on other triangulations, and the rows beside Table 1 for generalisation.
 
 matplotlib and pyvista (the ``viz`` extra) are imported when a figure is drawn, not with this module.
 """
@@ -14,7 +14,7 @@ import numpy as np
 from .._extras import require
 from ..evaluate import evenly_spaced, operatornet_method, test_set_indices
 from .paper import PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS
-from .report import ablation_table
+from .report import MAPPED_GROUPS, ablation_table
 
 __all__ = [
     "table1_figures",
@@ -24,6 +24,7 @@ __all__ = [
     "refinement_curves",
     "snapshot_steps",
     "discretisation_figure",
+    "generalisation_figure",
 ]
 
 
@@ -220,3 +221,96 @@ def discretisation_figure(mapped, nets: dict, shapes: int = 3):
     maps = [compute_map(mapped.base_basis, Mesh(v, human_faces(res)), k=k, base_spectrum=spectrum) for v in fine]
     recon = {name: operatornet_method(net, mapped, name).reconstruct(far) for name, net in nets.items()}
     return plot_mapped_reconstructions(maps, recon, mapped.vertices[far])
+
+
+def generalisation_figure(rows: list[dict]):
+    """The rows beside Table 1 for generalisation as a matplotlib figure, mean d_R (×10⁻⁴ m², that is cm²; log scale):
+    a panel for each kind of rows ``rows`` holds.
+
+    Unseen bodies: each OperatorNet on the three operators (Table 1's and those beside it, not the "Comp" networks of
+    :data:`~opnet.experiments.report.MAPPED_GROUPS`), then its refinement where rows hold one, its ``test``
+    (held-out sequences of seen bodies) and ``test_subjects`` (unseen bodies) errors side by side. Other
+    triangulations: each network of the ``"discretisation"`` rows on the same test shapes given by their exact 1k
+    operators and on the 2k and 5k meshes (true and computed maps), with the targets 1.5× and 3× the paper's
+    network's 1k error drawn as lines. Rows are read by their structured fields (``table``, ``architecture``,
+    ``channels``, ``group``, ``run``, ``refined``, ``bodies``, ``poses``, ``seeds``, ``resolution``, ``maps``); the
+    method names only label them.
+    """
+    from .. import KINDS
+
+    plt = require("matplotlib.pyplot", "generalisation_figure")
+    table1 = [r for r in rows if r.get("table") == "table1" and r["split"] in ("test", "test_subjects")]
+    runs = {  # the networks on the three operators, not the Comp ones
+        r["run"]
+        for r in table1
+        if r.get("architecture") == "operatornet"
+        and not r.get("refined")
+        and list(r.get("channels", ())) == list(KINDS)
+        and r.get("group") not in MAPPED_GROUPS
+    }
+    bodies = sorted((r for r in table1 if r.get("run") in runs), key=lambda r: bool(r.get("refined")))
+    disc = [r for r in rows if r.get("table") == "discretisation"]
+    panels = [(draw, part) for draw, part in ((_bodies_panel, bodies), (_triangulations_panel, disc)) if part]
+    if not panels:
+        raise ValueError("rows hold neither Table 1's OperatorNet rows nor 'discretisation' rows: nothing to draw.")
+    widths = [
+        max(1.0, 0.2 * len({r["method"] for r in bodies})) if draw is _bodies_panel else 1.0 for draw, _ in panels
+    ]
+    fig, axes = plt.subplots(1, len(panels), figsize=(6 * sum(widths), 5), gridspec_kw=dict(width_ratios=widths))
+    for ax, (draw, part) in zip(np.atleast_1d(axes), panels, strict=True):
+        draw(ax, part, KINDS)
+    fig.tight_layout()
+    return fig
+
+
+def _bodies_panel(ax, bodies: list, kinds) -> None:
+    """:func:`generalisation_figure`'s unseen-bodies bars on ``ax``."""
+    methods = list(dict.fromkeys(r["method"] for r in bodies))
+    for j, split in enumerate(("test", "test_subjects")):
+        value = {r["method"]: r for r in bodies if r["split"] == split}
+        x = np.arange(len(methods)) + (j - 0.5) * 0.38
+        heights = [1e4 * value[m]["d_R"] if m in value else np.nan for m in methods]
+        label = f"{split} ({'unseen' if j else 'seen'} bodies)"
+        bars = ax.bar(x, heights, 0.38, color=("tab:blue", "tab:red")[j], label=label)
+        ax.bar_label(bars, fmt="%.2f", fontsize=7, padding=1)
+    shapes = {(r["method"], r["split"]): r["n_shapes"] for r in bodies}
+    first = {r["method"]: r for r in reversed(bodies)}  # each method's fields
+
+    def tick(m):
+        r = first[m]
+        name = "paper's network" if r.get("variant") == "paper" else f"{r.get('variant')} variant"
+        name += "".join(f"\n{key}={r[key]}" for key in ("bodies", "poses") if r.get(key))
+        name += f"\nensemble of {r['seeds']}" if r.get("seeds") else ""
+        name += "\n+ refinement" if r.get("refined") else ""
+        return name + f"\nn = {shapes.get((m, 'test'), 0)} / {shapes.get((m, 'test_subjects'), 0)}"
+
+    ax.set_xticks(np.arange(len(methods)), [tick(m) for m in methods], fontsize=7)
+    ax.set_yscale("log")
+    ax.set_ylabel("mean d_R (×10⁻⁴ m² = cm²)")
+    ax.set_title("Unseen bodies: OperatorNet (Int+Ext) beside Table 1 (n: test / test_subjects shapes)", fontsize=10)
+    ax.legend(fontsize=8)
+
+
+def _triangulations_panel(ax, disc: list, kinds) -> None:
+    """:func:`generalisation_figure`'s other-triangulations lines on ``ax``."""
+    encodings = list(dict.fromkeys((r["resolution"], r["maps"]) for r in disc))
+    for m in dict.fromkeys(r["method"] for r in disc):
+        value = {(r["resolution"], r["maps"]): 1e4 * r["d_R"] for r in disc if r["method"] == m}
+        ax.plot(range(len(encodings)), [value.get(e, np.nan) for e in encodings], "o-", lw=0.8, label=m)
+    reference = [  # the targets: within 1.5x (2k) and 3x (5k) of the paper's network on the exact 1k operators
+        r
+        for r in disc
+        if (r["resolution"], r["maps"]) == ("1k", "exact")
+        and (r.get("group"), r.get("variant")) == ("table1", "paper")
+        and list(r.get("channels", ())) == list(kinds)
+    ]
+    for r in reference:
+        for factor, style in ((1.5, ":"), (3.0, "--")):
+            ax.axhline(factor * 1e4 * r["d_R"], color="grey", ls=style, lw=1, label=f"{factor:g}× its 1k error")
+    ax.set_xticks(range(len(encodings)), [f"{res}\n{maps}" for res, maps in encodings])
+    ax.set_yscale("log")
+    ax.set_ylabel("mean d_R (×10⁻⁴ m²)")
+    ax.set_title(
+        f"Other triangulations: {disc[0]['n_shapes']} test shapes per mesh (cf. the paper's Fig. 7)", fontsize=10
+    )
+    ax.legend(fontsize=7)

@@ -110,8 +110,9 @@ class RunSpec:
             stem = f"{self.group}-{short}-d{self.depth}" + ("" if self.variant == "paper" else f"-{self.variant}")
         if self.seed != 0:
             stem += f"-s{self.seed}"
-        if self.options:
-            stem += "-" + hashlib.sha256(repr(sorted(self.options.items())).encode()).hexdigest()[:8]
+        if self.options:  # a number by its value: {"operator_noise": 1} is the run of 1.0
+            canon = {k: float(v) if type(v) is int else v for k, v in self.options.items()}
+            stem += "-" + hashlib.sha256(repr(sorted(canon.items())).encode()).hexdigest()[:8]
         return stem
 
     def run_dir(self, root) -> Path | None:

@@ -112,8 +112,9 @@ def collection_fingerprint(collection, channels=None) -> str:
 
 
 def _data_config(collection, channels, version: int = FINGERPRINT_VERSION) -> dict:
-    """What a run was trained on: the collection's identity, a fingerprint of the arrays the network reads (its
-    ``channels``' operators) and, from version 2 on, those channels' names and digests. ``version=1`` gives the
+    """What a run was trained on: the collection's identity (with a generated collection's ``bodies`` and ``poses`` when
+    they are not the design's), a fingerprint of the arrays the network reads (its ``channels``' operators) and, from
+    version 2 on, those channels' names and digests. ``version=1`` gives the
     config of a run made before channels were data (the fingerprint of all the operators, opnet.KINDS).
     """
     meta = collection.meta
@@ -136,6 +137,7 @@ def _data_config(collection, channels, version: int = FINGERPRINT_VERSION) -> di
         n_vertices=int(collection.vertices.shape[1]),
         k=int(collection.base_basis.k),
     )
+    out.update({key: meta[key] for key in ("bodies", "poses") if key in meta})  # a generated collection's draws
     if version >= 2:
         out.update(
             fingerprint_version=version,
@@ -148,10 +150,13 @@ def _data_config(collection, channels, version: int = FINGERPRINT_VERSION) -> di
 
 def comparable(data: dict) -> dict:
     """A run's data config as compared on resume and load: each channel by its name and digest only (what else an
-    entry holds, such as where its class lives, is information).
+    entry holds, such as where its class lives, is information), without a generated collection's draws (``bodies``,
+    ``poses``: information too, for ``opnet evaluate`` to load the collection; the fingerprint tells their data apart,
+    and runs saved before they were recorded hold none).
     """
+    data = {k: v for k, v in data.items() if k not in ("bodies", "poses")}
     if "channels" not in data:
-        return dict(data)
+        return data
     return dict(data, channels=[{"name": c["name"], "digest": c["digest"]} for c in data["channels"]])
 
 
@@ -402,7 +407,7 @@ def model_from_checkpoint(ckpt: dict, path, collection=None, *, channels=None, d
         _check_channels(config, channels, path)
     if collection is not None:
         data = _data_config(collection, _run_channels(config), config["data"].get("fingerprint_version", 1))
-        if data != comparable(config["data"]):
+        if comparable(data) != comparable(config["data"]):
             got = dict(config, data=data)
             raise CheckpointError(
                 f"{path} was trained on {_describe(config)}, but this collection is "
