@@ -123,7 +123,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--no-bodies",
         action="store_true",
-        help="skip the rows of our variant trained with more distinct bodies (reproduce.MORE_BODIES; humans only)",
+        help="skip the rows of our variant trained with more distinct bodies and random poses (reproduce.MORE_BODIES; "
+        "humans only)",
     )
     r.add_argument("--data-root", default=None, help="where collections are cached")
     return p

@@ -293,8 +293,9 @@ def reproduce(
         once and cached beside the collection) and the different-discretisation rows (:func:`discretisation_rows`,
         ``budget.discretisation_shapes`` test shapes).
     bodies : also the :data:`MORE_BODIES` rows (generated humans, heads, hands; ``None``, the default: for the humans):
-        this project's variant trained with more distinct bodies among the training shapes (:func:`bodies_networks`),
-        evaluated like Table 1's networks (and refined with them, with ``refine``).
+        this project's variant trained with more distinct bodies (and random poses) among the training shapes
+        (:func:`bodies_networks`; one row is an ensemble of two seeds), evaluated like Table 1's networks (and
+        refined with them, with ``refine``).
     collection : one of :data:`~opnet.experiments.shipped.COLLECTIONS`: ``"humans"`` (the paper's Table 1 and its
         numbers beside ours) or ``"animals"`` (:mod:`opnet.data.animals`: the same networks and baselines; the
         analogies transfer pose and animal type, the interpolations go between species; the paper gives no numbers to
@@ -638,7 +639,8 @@ def bodies_networks(coll, out, budget: Budget, *, device="cpu", progress=None, b
     """The :data:`MORE_BODIES` networks, trained in ``out/runs/bodies-*`` (or loaded when trained there), each on the
     generated collection ``coll`` with other bodies (and poses) among its training shapes (``bodies=``, ``poses=``; the
     held-out shapes are ``coll``'s, checked): dicts name → its networks (one per seed), name → their histories,
-    name → run info (the first seed's, with the seeds' summed ``train_seconds`` and the entry's fields).
+    name → run info (the first seed's, with the seeds' summed ``train_seconds``, the entry's fields and, for an
+    ensemble, ``run``: its seeds' run names joined by ``+``).
     """
     from .data import load_collection
 
@@ -662,6 +664,8 @@ def bodies_networks(coll, out, budget: Budget, *, device="cpu", progress=None, b
         nets[name], histories[name] = [t[0] for t in trained], [t[1] for t in trained]
         seconds = sum(t[2]["train_seconds"] for t in trained)
         info[name] = dict(trained[0][2], train_seconds=seconds, **MORE_BODIES[name])
+        if len(specs) > 1:  # an ensemble is a method of its own: its rows are told apart from its first seed's
+            info[name]["run"] = "+".join(s.run_name for s in specs)
     return nets, histories, info
 
 
@@ -695,8 +699,9 @@ def generalisation_rows(
     """The rows beside Table 1 for generalisation (the docs' results page, "Generalisation"), their networks trained
     in ``out/runs/`` (or loaded when trained there).
 
-    With ``bodies``: the :data:`MORE_BODIES` networks (:func:`bodies_networks`) on ``coll``'s test sets (rows like
-    Table 1's, with ``bodies``) and, with ``refine``, refined by :func:`opnet.reconstruct` like Table 1's networks
+    With ``bodies``: the :data:`MORE_BODIES` networks (:func:`bodies_networks`; an ensemble's averaged,
+    :func:`opnet.evaluate.ensemble_method`) on ``coll``'s test sets (rows like Table 1's, with the entry's ``bodies``,
+    ``poses``, ``seeds``) and, with ``refine``, refined by :func:`opnet.reconstruct` like Table 1's networks
     (:data:`REFINE`, on :data:`REFINE_SETS`). With ``maps``: the :data:`COMP_HALF` networks, trained on half the
     training shapes through the "Comp" rows' maps (:data:`COMP_RESOLUTION`) and half exact
     (:func:`opnet.data.half_mapped`), on the "Comp" rows' test sets and in the different-discretisation rows
@@ -708,7 +713,7 @@ def generalisation_rows(
 
     def described(methods, info):
         for m in methods:
-            m.info = dict(table="table1", **specs[m.name].fields(), **info[m.name])
+            m.info = {"table": "table1", **specs[m.name].fields(), **info[m.name]}
         return methods
 
     if bodies:
@@ -724,7 +729,8 @@ def generalisation_rows(
         if refine:
             refined = [refined_method(m, coll, **_refine_options(budget, device)) for m in methods]
             for m, name in zip(refined, nets, strict=True):
-                m.info = _untrained_info(dict(specs[name].refined_fields(), **MORE_BODIES[name]), device)
+                fields = {**specs[name].refined_fields(), **MORE_BODIES[name], "run": info[name].get("run")}
+                m.info = _untrained_info({k: v for k, v in fields.items() if v is not None}, device)
             rows += evaluate(coll, refined, REFINE_SETS, extra=extra)
     if maps:
         if comp is None:

@@ -183,3 +183,5 @@ def test_bodies_refused(root):
         opnet.data.load_collection("humans", "quick", root, poses="dance")
     with pytest.raises(ValueError, match="their poses come from their clips"):
         opnet.data.load_collection("animals", "quick", root, poses="random")
+    with pytest.raises(ValueError, match="pick the same training shapes"):
+        opnet.data.load_collection("humans", "quick", root, bodies="mixed", poses="quarter")

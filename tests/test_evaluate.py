@@ -146,6 +146,8 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
         entry = reproduce.MORE_BODIES[r["method"]]
         assert {k: r[k] for k in ("bodies", "poses", "seeds") if k in r} == entry
         assert r["group"] == reproduce.bodies_group(**{k: v for k, v in entry.items() if k != "seeds"})
+        members = [s.run_name for s in reproduce.bodies_specs(budget) if s.group == r["group"]]
+        assert r["run"] == "+".join(members)  # an ensemble's rows are its own, not its first seed's
     seeds = sum(entry.get("seeds", 1) for entry in reproduce.MORE_BODIES.values())
     assert len(reproduce.bodies_specs(budget)) == seeds > len(reproduce.MORE_BODIES)  # an ensemble's seeds: trained
     refined = [r for r in t1 if r.get("refined") or r.get("baseline") in ("geometric", "funcchar")]

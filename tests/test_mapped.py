@@ -151,3 +151,44 @@ def test_a_few_shapes_are_spread_over_every_process():
     assert mapped_module._chunk_size(13, 32, 2) == 7
     assert mapped_module._chunk_size(5856, 32, 2) == 32  # a collection: parts of chunk
     assert mapped_module._chunk_size(12, 32, 1) == 12 and mapped_module._chunk_size(1, 32, 4) == 1
+
+
+def test_three_way_mapped_deals_the_training_shapes_to_three_encodings(humans, monkeypatch):
+    """A third of the training shapes exact, a sixth through the finer maps, the rest and the held-out shapes through
+    ``mapped``'s: as many shapes as the collection, each once."""
+    asked = {}
+
+    def fine(collection, resolution, maps, *, indices, **kw):  # a stand-in for the 5k maps: recognisable operators
+        asked.update(resolution=resolution, maps=maps, indices=np.asarray(indices))
+        out = collection.subset(indices)
+        out.operators = out.operators + 1.0
+        return out
+
+    monkeypatch.setattr(mapped_module, "mapped_collection", fine)
+    coarse = humans.subset(np.arange(len(humans)))
+    coarse.operators = coarse.operators + 2.0  # a stand-in for the 2k maps
+    three = opnet.data.three_way_mapped(humans, coarse, "5k")
+    train = humans.indices("train")
+    assert len(three) == len(humans) and asked["resolution"] == "5k" and asked["maps"] == "computed"
+    np.testing.assert_array_equal(asked["indices"], train[2::6])
+    for split in ("val", "test", "test_subjects"):  # held out through mapped's operators
+        np.testing.assert_array_equal(three.operators[three.indices(split)], coarse.operators[humans.indices(split)])
+    ops = three.operators[three.indices("train")]
+    shift = np.round(
+        ops
+        - np.concatenate(
+            [
+                humans.operators[np.sort(np.setdiff1d(train, np.r_[train[1::3], train[2::6]]))],
+                humans.operators[train[1::3]],
+                humans.operators[train[2::6]],
+            ]
+        )
+    )
+    counts = {v: int((shift.reshape(len(shift), -1)[:, 0] == v).sum()) for v in (0.0, 1.0, 2.0)}
+    assert counts == {
+        2.0: len(train) - len(train[1::3]) - len(train[2::6]),
+        0.0: len(train[1::3]),
+        1.0: len(train[2::6]),
+    }
+    with pytest.raises(ValueError, match="collection's shapes in its order"):
+        opnet.data.three_way_mapped(humans, coarse.subset(np.arange(5)))

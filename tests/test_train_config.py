@@ -184,9 +184,11 @@ def test_a_run_records_its_collections_draws(humans, root):
 
 def test_a_run_is_named_by_its_options_values():
     """The run folder of a spec: its options digested by value (1 and 1.0 are one training), not by their spelling."""
+    import numpy as np
+
     from opnet.experiments import RunSpec
 
-    one, same = (RunSpec(channels=("extrinsic",), options={"operator_noise": v}) for v in (1, 1.0))
-    assert one.run_name == same.run_name != RunSpec(channels=("extrinsic",)).run_name
+    one, *same = (RunSpec(channels=("extrinsic",), options={"operator_noise": v}) for v in (1, 1.0, np.float64(1)))
+    assert one.run_name == same[0].run_name == same[1].run_name != RunSpec(channels=("extrinsic",)).run_name
     assert one.run_name != RunSpec(channels=("extrinsic",), options={"operator_noise": 0.25}).run_name
     assert RunSpec(channels=("extrinsic",), options={"standardize": True}).run_name != one.run_name

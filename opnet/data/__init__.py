@@ -29,7 +29,7 @@ Layers, each importing only from those before it (``tests/test_data_layers.py`` 
 from . import animals, toy
 from .folder import load_folder
 from .generators import generate_shapes, load_collection
-from .mapped import half_mapped, mapped_collection
+from .mapped import half_mapped, mapped_collection, three_way_mapped
 from .splits import furthest_point_subset, hausdorff, make_splits
 from .storage import SPLITS, Collection, CollectionError, default_root, read_collection, save_collection
 
@@ -46,6 +46,7 @@ __all__ = [
     "save_collection",
     "mapped_collection",
     "half_mapped",
+    "three_way_mapped",
     "default_root",
     "make_splits",
     "hausdorff",

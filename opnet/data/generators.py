@@ -172,7 +172,7 @@ def _build(
             raise ValueError(f"poses={poses!r} re-poses training shapes of motions, and this design has none.")
         controls[reposed] = random(len(reposed), np.random.default_rng([seed, 2]))
         motion, frame, sub = motion.astype(object), frame.copy(), sub.astype(object)
-        motion[reposed], frame[reposed] = "random", -1  # no longer a frame of a motion
+        motion[reposed], frame[reposed] = "random", -1  # no longer a frame of a motion: frame -1 marks it
         sub[reposed] = [f"{n}/random" for n in names[reposed]]
         motion, sub = motion.astype(str), sub.astype(str)
     vertices = evaluate(phenotypes, controls)
@@ -376,7 +376,8 @@ def _slerp(r0, r1, t) -> list:
 
 
 def stem_name(meta: dict) -> str:
-    """The file name (without extensions) of a generated collection: ``<name>-<preset>-<resolution>-seed<seed>-v<N>``.
+    """The file name (without extensions) of a generated collection: ``<name>-<preset>-<resolution>-seed<seed>-v<N>``,
+    then ``-bodies-<bodies>`` and ``-poses-<poses>`` when they are not the design's (:data:`BODIES`, :data:`POSES`).
     The generator version is part of it: after an upgrade that changes the data, the collection is rebuilt; so is
     the animals' builder digest (``-<8 hex>``: their code and the asset package's version).
     """
@@ -444,6 +445,11 @@ def load_collection(
                     f"and their poses come from their clips: leave {key}={options[0]!r} for them."
                 )
             meta[key] = extra[key] = value
+    if bodies == "mixed" and poses in ("quarter", "mixed"):
+        raise ValueError(
+            f"bodies='mixed' and poses={poses!r} pick the same training shapes (every other one), so the new bodies "
+            "would be the only ones posed at random: combine poses= with bodies='subject', 'sequence' or 'shape'."
+        )
     if name == "animals":  # keyed by their code and the asset package's version; the registrations kept in root
         meta["builder"] = animals.builder_digest()
         extra["root"] = root

@@ -48,7 +48,7 @@ from .storage import (
     save_or_warn,
 )
 
-__all__ = ["mapped_collection", "half_mapped", "MAPS", "MAP_K"]
+__all__ = ["mapped_collection", "half_mapped", "three_way_mapped", "MAPS", "MAP_K"]
 
 #: How the shapes' other triangulation is mapped onto the base.
 MAPS = ("computed", "true")
@@ -191,6 +191,35 @@ def half_mapped(collection: Collection, mapped: Collection) -> Collection:
     train = collection.indices("train")
     kept = np.sort(np.r_[np.flatnonzero(collection.split != "train"), train[::2]])
     return mapped.subset(kept).with_training_from(collection.subset(train[1::2]))
+
+
+def three_way_mapped(
+    collection: Collection, mapped: Collection, resolution: str = "5k", *, root=None, n_jobs: int = -1, progress=None
+) -> Collection:
+    """``mapped`` (:func:`mapped_collection` of ``collection``, e.g. from the 2k meshes) with a third of the training
+    shapes taken with their exact operators from ``collection`` and a sixth through maps computed from their
+    ``resolution`` mesh instead (computed here, cached like :func:`mapped_collection`'s: seconds per shape): a network
+    trained on it sees three kinds of operators, as many shapes as any alone. The held-out splits keep ``mapped``'s
+    operators, so it is evaluated like ``mapped``.
+
+    Returns
+    -------
+    Collection
+        The held-out shapes and half the training shapes of ``mapped``, then every third training shape (from the
+        second) of ``collection``, then every sixth (from the third) through the ``resolution`` maps
+        (:meth:`Collection.with_training_from`).
+    """
+    if len(mapped) != len(collection) or not np.array_equal(mapped.vertices, collection.vertices):
+        raise ValueError(
+            "mapped must hold collection's shapes in its order (opnet.data.mapped_collection(collection, ...))."
+        )
+    train = collection.indices("train")
+    exact, fine = train[1::3], train[2::6]
+    kept = np.setdiff1d(np.arange(len(collection)), np.r_[exact, fine])
+    finer = mapped_collection(
+        collection, resolution, "computed", indices=fine, root=root, n_jobs=n_jobs, progress=progress
+    )
+    return mapped.subset(kept).with_training_from(collection.subset(exact), finer)
 
 
 def _fingerprint(source: Collection, k: int, ips) -> str:

@@ -14,7 +14,7 @@ import numpy as np
 from .._extras import require
 from ..evaluate import evenly_spaced, operatornet_method, test_set_indices
 from .paper import PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS
-from .report import MAPPED_GROUPS, ablation_table
+from .report import MAPPED_GROUPS, ablation_table, row_key
 
 __all__ = [
     "table1_figures",
@@ -250,60 +250,63 @@ def generalisation_figure(rows: list[dict]):
     }
     bodies = sorted((r for r in table1 if r.get("run") in runs), key=lambda r: bool(r.get("refined")))
     disc = [r for r in rows if r.get("table") == "discretisation"]
-    panels = [(draw, part) for draw, part in ((_bodies_panel, bodies), (_triangulations_panel, disc)) if part]
+    reference = [  # the targets: within 1.5x (2k) and 3x (5k) of the paper's network on the exact 1k operators
+        r
+        for r in disc
+        if (r["resolution"], r["maps"]) == ("1k", "exact")
+        and (r.get("group"), r.get("variant")) == ("table1", "paper")
+        and list(r.get("channels", ())) == list(KINDS)
+    ]
+    panels = [(_bodies_panel, bodies, max(1.0, 0.2 * len({row_key(r) for r in bodies})))] if bodies else []
+    panels += [(_triangulations_panel, (disc, reference), 1.0)] if disc else []  # (draw, its rows, its width)
     if not panels:
         raise ValueError("rows hold neither Table 1's OperatorNet rows nor 'discretisation' rows: nothing to draw.")
-    widths = [
-        max(1.0, 0.2 * len({r["method"] for r in bodies})) if draw is _bodies_panel else 1.0 for draw, _ in panels
-    ]
+    widths = [w for _, _, w in panels]
     fig, axes = plt.subplots(1, len(panels), figsize=(6 * sum(widths), 5), gridspec_kw=dict(width_ratios=widths))
-    for ax, (draw, part) in zip(np.atleast_1d(axes), panels, strict=True):
-        draw(ax, part, KINDS)
+    for ax, (draw, part, _) in zip(np.atleast_1d(axes), panels, strict=True):
+        draw(ax, part)
     fig.tight_layout()
     return fig
 
 
-def _bodies_panel(ax, bodies: list, kinds) -> None:
-    """:func:`generalisation_figure`'s unseen-bodies bars on ``ax``."""
-    methods = list(dict.fromkeys(r["method"] for r in bodies))
+def _bodies_panel(ax, bodies: list) -> None:
+    """:func:`generalisation_figure`'s unseen-bodies bars on ``ax``: a pair per method (:func:`row_key`)."""
+    keys = list(dict.fromkeys(row_key(r) for r in bodies))
     for j, split in enumerate(("test", "test_subjects")):
-        value = {r["method"]: r for r in bodies if r["split"] == split}
-        x = np.arange(len(methods)) + (j - 0.5) * 0.38
-        heights = [1e4 * value[m]["d_R"] if m in value else np.nan for m in methods]
+        value = {row_key(r): r for r in bodies if r["split"] == split}
+        x = np.arange(len(keys)) + (j - 0.5) * 0.38
+        heights = [1e4 * value[k]["d_R"] if k in value else np.nan for k in keys]
         label = f"{split} ({'unseen' if j else 'seen'} bodies)"
         bars = ax.bar(x, heights, 0.38, color=("tab:blue", "tab:red")[j], label=label)
-        ax.bar_label(bars, fmt="%.2f", fontsize=7, padding=1)
-    shapes = {(r["method"], r["split"]): r["n_shapes"] for r in bodies}
-    first = {r["method"]: r for r in reversed(bodies)}  # each method's fields
+        ax.bar_label(bars, fmt="%.3g", fontsize=7, padding=1)
+    shapes = {(row_key(r), r["split"]): r["n_shapes"] for r in bodies}
+    first = {row_key(r): r for r in reversed(bodies)}  # each method's fields
 
-    def tick(m):
-        r = first[m]
-        name = "paper's network" if r.get("variant") == "paper" else f"{r.get('variant')} variant"
+    def tick(k):
+        r = first[k]
+        name = {"paper": "paper's network", "ours": "our variant"}.get(r.get("variant"), f"{r.get('variant')} variant")
         name += "".join(f"\n{key}={r[key]}" for key in ("bodies", "poses") if r.get(key))
         name += f"\nensemble of {r['seeds']}" if r.get("seeds") else ""
         name += "\n+ refinement" if r.get("refined") else ""
-        return name + f"\nn = {shapes.get((m, 'test'), 0)} / {shapes.get((m, 'test_subjects'), 0)}"
+        return name + f"\nn = {shapes.get((k, 'test'), 0)} / {shapes.get((k, 'test_subjects'), 0)}"
 
-    ax.set_xticks(np.arange(len(methods)), [tick(m) for m in methods], fontsize=7)
+    ax.set_xticks(np.arange(len(keys)), [tick(k) for k in keys], fontsize=7)
     ax.set_yscale("log")
     ax.set_ylabel("mean d_R (×10⁻⁴ m² = cm²)")
     ax.set_title("Unseen bodies: OperatorNet (Int+Ext) beside Table 1 (n: test / test_subjects shapes)", fontsize=10)
     ax.legend(fontsize=8)
 
 
-def _triangulations_panel(ax, disc: list, kinds) -> None:
-    """:func:`generalisation_figure`'s other-triangulations lines on ``ax``."""
+def _triangulations_panel(ax, part: tuple) -> None:
+    """:func:`generalisation_figure`'s other-triangulations lines on ``ax``: ``part`` is the discretisation rows and
+    the reference rows of the targets' lines.
+    """
+    disc, reference = part
     encodings = list(dict.fromkeys((r["resolution"], r["maps"]) for r in disc))
-    for m in dict.fromkeys(r["method"] for r in disc):
-        value = {(r["resolution"], r["maps"]): 1e4 * r["d_R"] for r in disc if r["method"] == m}
-        ax.plot(range(len(encodings)), [value.get(e, np.nan) for e in encodings], "o-", lw=0.8, label=m)
-    reference = [  # the targets: within 1.5x (2k) and 3x (5k) of the paper's network on the exact 1k operators
-        r
-        for r in disc
-        if (r["resolution"], r["maps"]) == ("1k", "exact")
-        and (r.get("group"), r.get("variant")) == ("table1", "paper")
-        and list(r.get("channels", ())) == list(kinds)
-    ]
+    for k in dict.fromkeys(row_key(r) for r in disc):
+        rows = [r for r in disc if row_key(r) == k]
+        value = {(r["resolution"], r["maps"]): 1e4 * r["d_R"] for r in rows}
+        ax.plot(range(len(encodings)), [value.get(e, np.nan) for e in encodings], "o-", lw=0.8, label=rows[0]["method"])
     for r in reference:
         for factor, style in ((1.5, ":"), (3.0, "--")):
             ax.axhline(factor * 1e4 * r["d_R"], color="grey", ls=style, lw=1, label=f"{factor:g}× its 1k error")

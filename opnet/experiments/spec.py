@@ -7,6 +7,7 @@ from __future__ import annotations
 import hashlib
 import re
 from dataclasses import dataclass, field
+from numbers import Real
 from pathlib import Path
 
 from ..data.channels import split_channels
@@ -111,7 +112,9 @@ class RunSpec:
         if self.seed != 0:
             stem += f"-s{self.seed}"
         if self.options:  # a number by its value: {"operator_noise": 1} is the run of 1.0
-            canon = {k: float(v) if type(v) is int else v for k, v in self.options.items()}
+            canon = {
+                k: float(v) if isinstance(v, Real) and not isinstance(v, bool) else v for k, v in self.options.items()
+            }
             stem += "-" + hashlib.sha256(repr(sorted(canon.items())).encode()).hexdigest()[:8]
         return stem
 

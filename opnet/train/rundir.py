@@ -211,7 +211,8 @@ def _run_channels(config: dict) -> tuple:
 
 def _describe(config: dict) -> str:
     d, m = config["data"], config["model"]
-    data = f"{d['name']}/{d['preset']}/{d['resolution']} seed {d['seed']} (data {d['fingerprint'][:12]})"
+    draws = "".join(f" {k}={d[k]}" for k in ("bodies", "poses") if k in d)
+    data = f"{d['name']}/{d['preset']}/{d['resolution']} seed {d['seed']}{draws} (data {d['fingerprint'][:12]})"
     if m.get("architecture", "operatornet") != "operatornet":
         return f"{data}, {m['architecture']}"
     return f"{data}, channels {','.join(m['channels'])}, depth {m['depth']}"
