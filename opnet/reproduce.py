@@ -120,6 +120,7 @@ __all__ = [
     "COMP",
     "COMP_RESOLUTION",
     "COMP_HALF",
+    "COMP_THREE",
     "MORE_BODIES",
     "bodies_specs",
     "bodies_group",
@@ -213,6 +214,11 @@ COMP_RESOLUTION = "2k"
 #: exact operators (:func:`opnet.data.half_mapped`), chosen on ``val`` by ``benchmarks/generalisation.py``: name →
 #: channels. Tested like the "Comp" rows, and decoded in the different-discretisation rows too.
 COMP_HALF = {"OperatorNet (Comp + 1k)(Ext)": ("extrinsic",)}
+#: Beside them too, for the 5k meshes: the paper's network trained on a third of the training shapes with their exact
+#: operators, a sixth through maps computed from their 5k meshes and the rest through the :data:`COMP_RESOLUTION`
+#: maps (:func:`opnet.data.three_way_mapped`), chosen on ``val`` by ``benchmarks/generalisation.py``: name →
+#: channels. Its 5k maps take seconds per shape (a sixth of the training shapes), computed once and cached.
+COMP_THREE = {"OperatorNet (Comp + 5k + 1k)(Ext)": ("extrinsic",)}
 #: Rows beside Table 1 for unseen bodies (the docs' results page, "Generalisation"): this project's variant trained on
 #: the collection with more distinct bodies among its training shapes (:func:`opnet.data.load_collection`'s
 #: ``bodies``, and ``poses``: more random poses; the held-out shapes are the same), chosen on the validation bodies by
@@ -230,7 +236,7 @@ MORE_BODIES = {
 #: The different-discretisation rows: test shapes on these meshes, mapped onto the 1k base by these maps.
 DISCRETISATIONS = (("2k", "true"), ("2k", "computed"), ("5k", "true"), ("5k", "computed"))
 #: The networks that decode them (Table 1's and :data:`COMP`'s names; :func:`generalisation_rows` adds
-#: :data:`COMP_HALF`'s).
+#: :data:`COMP_HALF`'s and :data:`COMP_THREE`'s).
 DISCRETISATION_NETWORKS = ("OperatorNet (Int+Ext)", "OperatorNet (Ext)", *COMP)
 
 
@@ -341,7 +347,7 @@ def reproduce(
         total=len(TABLE1)
         + len(OURS)
         + bool(applications)
-        + (len(COMP) + len(COMP_HALF) if maps else 0)
+        + (len(COMP) + len(COMP_HALF) + len(COMP_THREE) if maps else 0)
         + (len(bodies_specs(budget)) if bodies else 0)
         + (len(ABLATION_DEPTHS) * len(ABLATION_SETS) if ablation else 0),
         desc="reproduce",
@@ -523,7 +529,13 @@ def _declared_specs(budget: Budget) -> dict:
     """Name → declared run (:class:`opnet.experiments.RunSpec`) of Table 1's networks (:func:`table1_specs`,
     :func:`comp_specs`, :func:`bodies_specs`).
     """
-    specs = (*table1_specs(budget), *comp_specs(budget), *comp_specs(budget, half=True), *bodies_specs(budget))
+    specs = (
+        *table1_specs(budget),
+        *comp_specs(budget),
+        *comp_specs(budget, beside="half"),
+        *comp_specs(budget, beside="three"),
+        *bodies_specs(budget),
+    )
     return {s.name: s for s in specs}
 
 
@@ -594,13 +606,16 @@ def comp_networks(coll, out, budget: Budget, *, device="cpu", progress=None, bar
     return comp, nets, histories, info
 
 
-def comp_specs(budget: Budget, *, half: bool = False) -> list:
-    """Table 1's "Comp" declared runs (:data:`COMP`, group ``"comp"``), each named by its Table 1 row; with ``half``,
-    the runs beside them instead (:data:`COMP_HALF`, group ``"comp-half"``).
+def comp_specs(budget: Budget, *, beside: str | None = None) -> list:
+    """Table 1's "Comp" declared runs (:data:`COMP`, group ``"comp"``), each named by its Table 1 row; with ``beside``
+    ``"half"`` or ``"three"``, the runs beside them instead (:data:`COMP_HALF`, group ``"comp-half"``;
+    :data:`COMP_THREE`, group ``"comp-three"``).
     """
-    if half:
-        return [spec("comp-half", budget, channels, name=name) for name, channels in COMP_HALF.items()]
-    return [spec("comp", budget, channels, name=name) for name, channels in COMP.items()]
+    rows = {None: COMP, "half": COMP_HALF, "three": COMP_THREE}
+    if beside not in rows:
+        raise ValueError(f"beside must be None, 'half' or 'three', got {beside!r}.")
+    group = "comp" if beside is None else f"comp-{beside}"
+    return [spec(group, budget, channels, name=name) for name, channels in rows[beside].items()]
 
 
 def bodies_group(bodies: str, poses: str = "sequence") -> str:
@@ -704,10 +719,11 @@ def generalisation_rows(
     ``poses``, ``seeds``) and, with ``refine``, refined by :func:`opnet.reconstruct` like Table 1's networks
     (:data:`REFINE`, on :data:`REFINE_SETS`). With ``maps``: the :data:`COMP_HALF` networks, trained on half the
     training shapes through the "Comp" rows' maps (:data:`COMP_RESOLUTION`) and half exact
-    (:func:`opnet.data.half_mapped`), on the "Comp" rows' test sets and in the different-discretisation rows
+    (:func:`opnet.data.half_mapped`), and the :data:`COMP_THREE` ones (a third exact, a sixth through 5k maps:
+    :func:`opnet.data.three_way_mapped`), on the "Comp" rows' test sets and in the different-discretisation rows
     (:func:`discretisation_rows`). ``comp``: the :func:`comp_networks` collection, reused (loaded when ``None``).
     """
-    from .data import half_mapped, mapped_collection
+    from .data import half_mapped, mapped_collection, three_way_mapped
 
     specs, rows = _declared_specs(budget), []
 
@@ -735,10 +751,15 @@ def generalisation_rows(
     if maps:
         if comp is None:
             comp = mapped_collection(coll, COMP_RESOLUTION, "computed", root=data_root, progress=progress)
-        half = half_mapped(coll, comp)
+        mixed = {
+            "half": lambda: half_mapped(coll, comp),
+            "three": lambda: three_way_mapped(coll, comp, "5k", root=data_root, progress=progress),
+        }
         nets, info = {}, {}
-        for s in comp_specs(budget, half=True):
-            nets[s.name], _, info[s.name] = _train(half, out, s, device=device, progress=progress, bar=bar)
+        for beside, data in mixed.items():
+            trained_on = data()
+            for s in comp_specs(budget, beside=beside):
+                nets[s.name], _, info[s.name] = _train(trained_on, out, s, device=device, progress=progress, bar=bar)
         methods = described([operatornet_method(net, comp, name) for name, net in nets.items()], info)
         rows += evaluate(comp, methods, TEST_SETS, extra=extra)
         rows += discretisation_rows(coll, nets, budget, comp=comp, data_root=data_root, progress=progress, extra=extra)

@@ -303,13 +303,13 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
     )
     comp = [r for r in rows if r["table"] == "table1" and r.get("group") in MAPPED_GROUPS]
     assert {(r["method"], r["split"]) for r in comp} == {
-        (m, s) for m in [*reproduce.COMP, *reproduce.COMP_HALF] for s in evaluate.TEST_SETS
+        (m, s) for m in [*reproduce.COMP, *reproduce.COMP_HALF, *reproduce.COMP_THREE] for s in evaluate.TEST_SETS
     }
     comp = opnet.data.mapped_collection(few, "2k", root=data)  # cached by reproduce
     for short in ("A+E+C", "Ext"):  # the Comp networks were trained on it
         config = json.loads((tmp_path / "runs" / f"comp-{short}-d1" / "config.json").read_text())
         assert config["data"]["fingerprint"] == train.collection_fingerprint(comp, opnet.CHANNEL_SETS[short])
-    (spec,) = reproduce.comp_specs(budget, half=True)  # beside them: half the shapes through the maps, half exact
+    (spec,) = reproduce.comp_specs(budget, beside="half")  # beside them: half the shapes through the maps, half exact
     config = json.loads((tmp_path / "runs" / spec.run_name / "config.json").read_text())
     half = opnet.data.half_mapped(few, comp)
     assert config["data"]["fingerprint"] == train.collection_fingerprint(half, ("extrinsic",))
@@ -324,7 +324,7 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
     encodings = [("1k", "exact"), *reproduce.DISCRETISATIONS]
     assert [(r["resolution"], r["maps"], r["method"]) for r in disc] == [
         (*e, m) for e in encodings for m in reproduce.DISCRETISATION_NETWORKS
-    ] + [(*e, m) for e in encodings for m in reproduce.COMP_HALF]  # the rows beside them, after them
+    ] + [(*e, m) for e in encodings for m in [*reproduce.COMP_HALF, *reproduce.COMP_THREE]]  # beside them, after them
     assert all(r["n_shapes"] == 3 and np.isfinite(r["d_R"]) for r in disc)
     errors = {(r["resolution"], r["maps"]): r["map_error"] for r in disc}
     assert 0 < errors["2k", "computed"] < 0.05 and 0 < errors["5k", "computed"] < 0.05  # metres
