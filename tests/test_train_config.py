@@ -192,3 +192,20 @@ def test_a_run_is_named_by_its_options_values():
     assert one.run_name == same[0].run_name == same[1].run_name != RunSpec(channels=("extrinsic",)).run_name
     assert one.run_name != RunSpec(channels=("extrinsic",), options={"operator_noise": 0.25}).run_name
     assert RunSpec(channels=("extrinsic",), options={"standardize": True}).run_name != one.run_name
+
+
+def test_evaluate_loads_the_collection_a_run_was_trained_on(monkeypatch, tmp_path):
+    """`opnet evaluate` of a run of a generated collection with draws loads that collection, draws and all."""
+    data = dict(name="humans", preset="quick", resolution="1k", seed=0, bodies="shape", poses="quarter")
+    monkeypatch.setattr("opnet.train.checkpoint_path", lambda run_dir: tmp_path / "best.pt")
+    monkeypatch.setattr("opnet.train.read_checkpoint", lambda path, **kw: {"config": {"data": data}})
+    seen = {}
+
+    def load(*args, **kwargs):
+        seen.update(kwargs)
+        raise RuntimeError("loaded")  # far enough: what it was asked for is recorded
+
+    monkeypatch.setattr("opnet.data.load_collection", load)
+    with pytest.raises(RuntimeError, match="loaded"):
+        main(["evaluate", "--run-dir", str(tmp_path)])
+    assert seen["bodies"] == "shape" and seen["poses"] == "quarter" and seen["seed"] == 0
