@@ -40,7 +40,7 @@ The run folders are ``reproduce``'s (``table1-*``, ``comp-*``, ``bodies-*``): a 
 reuses them. Run::
 
     .venv/bin/python benchmarks/generalisation.py --preset default --runs reproduce-default/runs \\
-        --json results/generalisation.json       # 9 networks, 8-25 min each on 2 cores
+        --json results/generalisation.json       # 14 networks, 8-25 min each on 2 cores; 5k maps ~30 min
 """
 
 from __future__ import annotations
