@@ -117,17 +117,15 @@ def _row(rows, **fields) -> dict:
     return dict(fields, n_shapes=r["n_shapes"], **{m: r[m] for m in METRICS})
 
 
-def _errors_row(vertices, recon, **fields) -> dict:
-    """A row of the mean and median d_R of reconstructions ``recon`` against ``vertices``."""
-    err = opnet.metrics.d_R(np.asarray(vertices, np.float64), recon)
+def _errors_row(err, **fields) -> dict:
+    """A row of the mean and median of per-shape d_R ``err``."""
     return dict(fields, n_shapes=len(err), d_R=float(err.mean()), d_R_median=float(np.median(err)))
 
 
-def _by_pose(coll, idx, method) -> dict:
-    """The mean d_R of ``method`` on the shapes ``idx`` of ``coll`` apart on their motion sequences and on their random
-    poses, and the random poses' share of the summed error.
+def _by_pose(coll, idx, err) -> dict:
+    """The mean of the errors ``err`` of the shapes ``idx`` of ``coll`` apart on their motion sequences and on their
+    random poses, and the random poses' share of their sum.
     """
-    err = opnet.metrics.d_R(coll.vertices[idx].astype(np.float64), method.reconstruct(idx))
     random = coll.params["motion"][idx] == "random"
     return dict(
         random_poses=float(err[random].mean()),
@@ -171,8 +169,8 @@ def bodies(args, budget, rows: list) -> None:
             epochs=group[0].info["epochs"],
         )
         rows.append(_row(evaluate(base, [method(label, base)], ("val",)), split="val", **where))
-        row = _errors_row(held.vertices, method(label, held).reconstruct(every), split="val_bodies", **where)
-        rows.append(row | _by_pose(held, every, method(label, held)))
+        err = opnet.metrics.d_R(held.vertices.astype(np.float64), method(label, held).reconstruct(every))
+        rows.append(_errors_row(err, split="val_bodies", **where) | _by_pose(held, every, err))
     scored = {r["candidate"]: r["d_R"] for r in rows if r["part"] == "bodies" and r["split"] == "val_bodies"}
     val = {r["candidate"]: r["d_R"] for r in rows if r["part"] == "bodies" and r["split"] == "val"}
     baseline = next(iter(BODIES))  # the collection as built
@@ -185,8 +183,7 @@ def bodies(args, budget, rows: list) -> None:
     refined = refined_method(method(best, held), held, **REFINE, steps=budget.refine_steps)
     rows.append(
         _errors_row(
-            held.vertices[idx],
-            refined.reconstruct(idx),
+            opnet.metrics.d_R(held.vertices[idx].astype(np.float64), refined.reconstruct(idx)),
             part="bodies",
             candidate=f"{best} + refinement",
             split="val_bodies",
@@ -202,7 +199,7 @@ def bodies(args, budget, rows: list) -> None:
             if r["split"] == "test_subjects":  # what carries the mean: each unseen body's, the random poses'
                 err = opnet.metrics.d_R(base.vertices[held_out].astype(np.float64), decoder.reconstruct(held_out))
                 row["per_body"] = {b: float(err[base.subject[held_out] == b].mean()) for b in base.subjects(r["split"])}
-                row |= _by_pose(base, held_out, decoder)
+                row |= _by_pose(base, held_out, err)
             rows.append(row)
 
 
@@ -258,8 +255,7 @@ def maps(args, budget, rows: list) -> None:
     where = dict(part="maps", split="val", resolution="5k", maps="computed", zoomout_k=100)
     rows.append(
         _errors_row(
-            enc.vertices[idx],
-            refined.reconstruct(idx),
+            opnet.metrics.d_R(enc.vertices[idx].astype(np.float64), refined.reconstruct(idx)),
             candidate=f"{best} + refinement",
             **where,
             d_R_before=refined.info["d_R_before"],

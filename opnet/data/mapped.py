@@ -184,10 +184,7 @@ def half_mapped(collection: Collection, mapped: Collection) -> Collection:
         The held-out shapes and the even training shapes of ``mapped``, then the odd training shapes of
         ``collection`` (:meth:`Collection.with_training_from`).
     """
-    if len(mapped) != len(collection) or not np.array_equal(mapped.vertices, collection.vertices):
-        raise ValueError(
-            "mapped must hold collection's shapes in its order (opnet.data.mapped_collection(collection, ...))."
-        )
+    _check_same_shapes(collection, mapped)
     train = collection.indices("train")
     kept = np.sort(np.r_[np.flatnonzero(collection.split != "train"), train[::2]])
     return mapped.subset(kept).with_training_from(collection.subset(train[1::2]))
@@ -209,10 +206,7 @@ def three_way_mapped(
         second) of ``collection``, then every sixth (from the third) through the ``resolution`` maps
         (:meth:`Collection.with_training_from`).
     """
-    if len(mapped) != len(collection) or not np.array_equal(mapped.vertices, collection.vertices):
-        raise ValueError(
-            "mapped must hold collection's shapes in its order (opnet.data.mapped_collection(collection, ...))."
-        )
+    _check_same_shapes(collection, mapped)
     train = collection.indices("train")
     exact, fine = train[1::3], train[2::6]
     kept = np.setdiff1d(np.arange(len(collection)), np.r_[exact, fine])
@@ -220,6 +214,14 @@ def three_way_mapped(
         collection, resolution, "computed", indices=fine, root=root, n_jobs=n_jobs, progress=progress
     )
     return mapped.subset(kept).with_training_from(collection.subset(exact), finer)
+
+
+def _check_same_shapes(collection: Collection, mapped: Collection) -> None:
+    """Refuse a ``mapped`` that does not hold ``collection``'s shapes in its order."""
+    if len(mapped) != len(collection) or not np.array_equal(mapped.vertices, collection.vertices):
+        raise ValueError(
+            "mapped must hold collection's shapes in its order (opnet.data.mapped_collection(collection, ...))."
+        )
 
 
 def _fingerprint(source: Collection, k: int, ips) -> str:

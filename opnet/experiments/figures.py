@@ -14,7 +14,7 @@ import numpy as np
 from .._extras import require
 from ..evaluate import evenly_spaced, operatornet_method, test_set_indices
 from .paper import PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS
-from .report import MAPPED_GROUPS, ablation_table, row_key
+from .report import MAPPED_GROUPS, PAPER_TABLE1_ROWS, ablation_table, matches, row_key
 
 __all__ = [
     "table1_figures",
@@ -243,20 +243,12 @@ def generalisation_figure(rows: list[dict]):
     runs = {  # the networks on the three operators, not the Comp ones
         r["run"]
         for r in table1
-        if r.get("architecture") == "operatornet"
-        and not r.get("refined")
-        and list(r.get("channels", ())) == list(KINDS)
-        and r.get("group") not in MAPPED_GROUPS
+        if matches(r, architecture="operatornet", channels=KINDS, refined=None) and r.get("group") not in MAPPED_GROUPS
     }
     bodies = sorted((r for r in table1 if r.get("run") in runs), key=lambda r: bool(r.get("refined")))
     disc = [r for r in rows if r.get("table") == "discretisation"]
-    reference = [  # the targets: within 1.5x (2k) and 3x (5k) of the paper's network on the exact 1k operators
-        r
-        for r in disc
-        if (r["resolution"], r["maps"]) == ("1k", "exact")
-        and (r.get("group"), r.get("variant")) == ("table1", "paper")
-        and list(r.get("channels", ())) == list(KINDS)
-    ]
+    paper = PAPER_TABLE1_ROWS["OperatorNet (Int+Ext)"]  # the targets: within 1.5x (2k) and 3x (5k) of its 1k error
+    reference = [r for r in disc if (r["resolution"], r["maps"]) == ("1k", "exact") and matches(r, **paper)]
     panels = [(_bodies_panel, bodies, max(1.0, 0.2 * len({row_key(r) for r in bodies})))] if bodies else []
     panels += [(_triangulations_panel, (disc, reference), 1.0)] if disc else []  # (draw, its rows, its width)
     if not panels:
