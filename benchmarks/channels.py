@@ -1,4 +1,4 @@
-"""Benchmark: adding a channel of one's own to a collection (``Collection.with_kinds``).
+"""Benchmark: adding a channel of one's own to a collection (``Collection.with_channels``).
 
 Times, on the humans collection of a preset (built or read from ``$OPNET_DATA_DIR``, not counted):
 
@@ -56,7 +56,7 @@ def timed(fn):
 
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--preset", default="default", choices=["quick", "default", "paper"])
+    parser.add_argument("--preset", default="default", choices=list(opnet.experiments.BUDGETS))
     parser.add_argument("--shapes", type=int, default=600, help="shapes of the one-by-one rows (600)")
     parser.add_argument("--json", default=None, help="also write the results to this JSON file")
     return parser.parse_args(argv)
@@ -71,14 +71,14 @@ def measure(args) -> dict:
     n, k = coll.vertices.shape[1], coll.base_basis.k
     results = {"date": time.strftime("%Y-%m-%d"), "preset": args.preset, "shapes": len(coll), "vertices": n, "k": k}
     results |= {"cpu_count": os.cpu_count(), "loadavg_1min_at_start": round(load, 2)}
-    _, results["batched_first_s"] = timed(lambda: coll.with_kinds([RadialArea()], progress=False))
-    _, results["batched_cached_s"] = timed(lambda: coll.with_kinds([RadialArea()], progress=False))
+    _, results["batched_first_s"] = timed(lambda: coll.with_channels([RadialArea()], progress=False))
+    _, results["batched_cached_s"] = timed(lambda: coll.with_channels([RadialArea()], progress=False))
     offsets = [opnet.inner_products.get_inner_product(name) for name in ("offset_area", "offset_conformal")]
-    _, results["offset_builtin_s"] = timed(lambda: coll.with_kinds(offsets, recompute=True, progress=False))
+    _, results["offset_builtin_s"] = timed(lambda: coll.with_channels(offsets, recompute=True, progress=False))
     few = coll.subset(np.arange(min(args.shapes, len(coll))))
-    _, results["area_builtin_s"] = timed(lambda: few.with_kinds([opnet.AreaInnerProduct()], recompute=True))
-    one, results["one_by_one_serial_s"] = timed(lambda: few.with_kinds([RadialAreaOneByOne()], n_jobs=1))
-    par, results["one_by_one_processes_s"] = timed(lambda: few.with_kinds([RadialAreaOneByOne()], n_jobs=-1))
+    _, results["area_builtin_s"] = timed(lambda: few.with_channels([opnet.AreaInnerProduct()], recompute=True))
+    one, results["one_by_one_serial_s"] = timed(lambda: few.with_channels([RadialAreaOneByOne()], n_jobs=1))
+    par, results["one_by_one_processes_s"] = timed(lambda: few.with_channels([RadialAreaOneByOne()], n_jobs=-1))
     assert np.array_equal(one.operators, par.operators)
     results["one_by_one_shapes"] = len(few)
     results["loadavg_1min_at_end"] = round(os.getloadavg()[0], 2)

@@ -187,7 +187,7 @@ def bodies(args, budget, rows: list) -> None:
             part="bodies",
             candidate=f"{best} + refinement",
             split="val_bodies",
-            d_R_before=refined.info["d_R_before"],
+            **refined.measures(idx),
         )
     )
     picked = [baseline, *FINAL, alone.get(best, best), best]  # an ensemble's first seed alone too
@@ -236,7 +236,7 @@ def maps(args, budget, rows: list) -> None:
                     / np.linalg.norm(exact[:, i] - eye, axis=(1, 2))
                 )
             )
-            for i, c in enumerate(coll.kinds)
+            for i, c in enumerate(coll.channels)
         }
         error = float(np.mean(enc.params["map_error"])) if "map_error" in enc.params else 0.0
         where = dict(part="maps", split="val", resolution=res, maps=kind, zoomout_k=k, map_error=error, shift=shift)
@@ -258,7 +258,7 @@ def maps(args, budget, rows: list) -> None:
             opnet.metrics.d_R(enc.vertices[idx].astype(np.float64), refined.reconstruct(idx)),
             candidate=f"{best} + refinement",
             **where,
-            d_R_before=refined.info["d_R_before"],
+            **refined.measures(idx),
         )
     )
     test = discretisation_indices(coll, BUDGETS[args.preset])

@@ -60,8 +60,8 @@ def measure(args) -> dict:
     info = torch_machine_info()
     budget = BUDGETS[args.preset]
     epochs = budget.epochs if args.epochs is None else args.epochs
-    kinds = list(dict.fromkeys(k for channels in SETS.values() for k in channels))
-    coll = opnet.data.load_collection("humans", args.preset).with_kinds(kinds)
+    wanted = list(dict.fromkeys(c for channels in SETS.values() for c in channels))
+    coll = opnet.data.load_collection("humans", args.preset).with_channels(wanted)
     results = opnet.ablation(
         coll,
         list(SETS.values()),

@@ -5,10 +5,10 @@ Measures, side by side and in one run, on the ~1000-vertex toy capsule
 inflated copies of it (``toy.bend`` / ``toy.bulge`` with random parameters from a seeded
 ``numpy.random.Generator``), for a base eigenbasis of ``k = 60`` functions:
 
-1. the fast path ``opnet.shape_differences(base_basis, vertices, kinds=...)`` — shapes per
+1. the fast path ``opnet.shape_differences(base_basis, vertices, channels=...)`` — shapes per
    second for the three operators together and for each one alone (best of 3 repeats,
    after a warm-up call) — and the same without its checks of the shapes
-   (``opnet.shape_difference.fast_path``, what ``Collection.with_kinds`` runs on a collection's
+   (``opnet.shape_difference.fast_path``, what ``Collection.with_channels`` runs on a collection's
    shapes, checked when it was built);
 2. the explicit formula as the authors' code evaluates it: for each target its full dense
    eigendecomposition (``opnet.eigenbasis(target, n)``), ``opnet.identity_fmap`` and then
@@ -107,13 +107,13 @@ def rel_diff(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(num / den))
 
 
-def time_fast(base_basis, shapes, kinds, repeats, batch_size, *, checked: bool = True):
+def time_fast(base_basis, shapes, channels, repeats, batch_size, *, checked: bool = True):
     """Seconds per shape of ``opnet.shape_differences`` (``checked``) or of the fast path without the checks."""
-    ips = opnet.inner_products.get_inner_products(kinds)
+    ips = opnet.inner_products.get_inner_products(channels)
 
     def run(some=shapes):
         if checked:
-            return opnet.shape_differences(base_basis, some, kinds=kinds, batch_size=batch_size, progress=False)
+            return opnet.shape_differences(base_basis, some, channels=channels, batch_size=batch_size, progress=False)
         return fast_path(base_basis, some, ips, batch_size=batch_size)
 
     run(shapes[:batch_size])  # warm-up: the product tables of the basis are built once
@@ -127,8 +127,8 @@ def dense_rate(repeats: int = 3) -> float:
     return 2 * DENSE_SIZE**3 / best_of(lambda: a @ b, repeats) / 1e9
 
 
-def fast_path_flops(n_vertices: int, n_edges: int, k: int, kinds) -> float:
-    """Floating-point operations per shape of the fast path's matrix products for ``kinds``.
+def fast_path_flops(n_vertices: int, n_edges: int, k: int, channels) -> float:
+    """Floating-point operations per shape of the fast path's matrix products for ``channels``.
 
     Each Gram ``Φᵀ diag(w) Φ`` is one product of the weights with a table of the ``k (k + 1) / 2`` column products
     of ``Φ`` (``n`` rows for area and extrinsic, one per edge for conformal): ``2 rows · k (k + 1) / 2``; the
@@ -137,7 +137,7 @@ def fast_path_flops(n_vertices: int, n_edges: int, k: int, kinds) -> float:
     """
     rows = {"area": n_vertices, "conformal": n_edges, "extrinsic": n_vertices}
     return sum(
-        rows[kind] * k * (k + 1) + 2 * k**3 + (10 * n_vertices * k if kind == "extrinsic" else 0) for kind in kinds
+        rows[kind] * k * (k + 1) + 2 * k**3 + (10 * n_vertices * k if kind == "extrinsic" else 0) for kind in channels
     )
 
 
@@ -231,7 +231,7 @@ def profile_fast(base_basis, shapes, batch_size, top=18):
     """cProfile of the fast path: its text report and the top functions by own time."""
     pr = cProfile.Profile()
     pr.enable()
-    opnet.shape_differences(base_basis, shapes, kinds=KINDS, batch_size=batch_size, progress=False)
+    opnet.shape_differences(base_basis, shapes, channels=KINDS, batch_size=batch_size, progress=False)
     pr.disable()
     s = io.StringIO()
     st = pstats.Stats(pr, stream=s).sort_stats("tottime")
@@ -414,14 +414,14 @@ def measure(args) -> dict:
     # 1. fast path, with and without the shape checks, between two measurements of the dense-product rate
     rates = [dense_rate()]
     fast, unchecked = {}, {}
-    for key, kinds in (("all", KINDS), *((kind, (kind,)) for kind in KINDS)):
-        fast[key] = time_fast(base_basis, shapes[:n_shapes], kinds, args.repeats, args.batch_size)
-        unchecked[key] = time_fast(base_basis, shapes[:n_shapes], kinds, args.repeats, args.batch_size, checked=False)
+    for key, wanted in (("all", KINDS), *((kind, (kind,)) for kind in KINDS)):
+        fast[key] = time_fast(base_basis, shapes[:n_shapes], wanted, args.repeats, args.batch_size)
+        unchecked[key] = time_fast(base_basis, shapes[:n_shapes], wanted, args.repeats, args.batch_size, checked=False)
     rates.append(dense_rate())
     rate = max(rates)
     n_edges = len(opnet.mesh.unique_edges(base.faces))
     flops = {key: fast_path_flops(base.n_vertices, n_edges, args.k, KINDS if key == "all" else (key,)) for key in fast}
-    D_fast = opnet.shape_differences(base_basis, shapes[:n_explicit], kinds=KINDS, progress=False)
+    D_fast = opnet.shape_differences(base_basis, shapes[:n_explicit], channels=KINDS, progress=False)
     D_unchecked = fast_path(base_basis, shapes[:n_explicit], opnet.inner_products.get_inner_products(KINDS))
 
     # 2. explicit formula
@@ -435,7 +435,7 @@ def measure(args) -> dict:
     label.update({k: k for k in KINDS})
     for method, times, D in (
         ("opnet fast path `shape_differences`", fast, D_fast),
-        ("the same without the shape checks (`with_kinds`)", unchecked, D_unchecked),
+        ("the same without the shape checks (`with_channels`)", unchecked, D_unchecked),
     ):
         for key in ("all", *KINDS):
             sl = slice(None) if key == "all" else KINDS.index(key)

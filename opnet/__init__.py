@@ -12,9 +12,10 @@ Public API::
     DX    = opnet.analogy(DA, DB, DC)          # D_X = D_C D_A⁺ D_B
     opnet.testing.check_inner_product(MyInnerProduct(), mesh)   # for a new inner product: one line per failed property
     D     = opnet.encode(any_mesh, base_basis, fmap="computed")   # (3, k, k) through a computed map (pyFM)
-    X     = opnet.decode(net, D)                 # (n, 3) on the base's triangulation
+    D     = opnet.encode(any_mesh, coll, fmap="computed")   # (C, k, k): the collection's channels, its base
+    X     = opnet.decode(net, D)                 # (n, 3) on the base's triangulation (D: the network's channels)
     net   = opnet.OperatorNet(n_vertices, k=60)  # (B, 3, k, k) -> (B, n, 3); loss: opnet.rigid_alignment_loss
-    coll  = opnet.data.load_collection("humans", "quick").with_kinds(["area", "extrinsic", MyIP()])  # any channels
+    coll  = opnet.data.load_collection("humans", "quick").with_channels(["area", "extrinsic", MyIP()])  # any channels
     net, history = opnet.train.fit(coll, channels=["area", MyIP()], depth=1, epochs=50, run_dir="runs/x")
     rows  = opnet.evaluate.evaluate(collection, [opnet.evaluate.operatornet_method(net, collection)])
     table = opnet.ablation(collection, channel_sets=[["area"], ["area", MyIP()]], depths=[1, 2], epochs=20)

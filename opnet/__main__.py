@@ -10,6 +10,9 @@ import sys
 
 def _parser() -> argparse.ArgumentParser:
     from .data.generators import BODIES, POSES
+    from .experiments.config import EvaluateConfig, ReproduceConfig
+    from .experiments.plan import PRESETS
+    from .options import add_arguments as add_config
     from .train.config import add_arguments
 
     p = argparse.ArgumentParser(
@@ -34,7 +37,7 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument(
         "--preset",
         default="quick",
-        choices=["quick", "default", "paper"],
+        choices=list(PRESETS),
         help="collection size: quick (hundreds of shapes), default (thousands), paper (≈20 000)",
     )
     t.add_argument("--resolution", default=None, help="humans only: 1k (default), 2k or 5k vertices")
@@ -69,64 +72,17 @@ def _parser() -> argparse.ArgumentParser:
         "(same channels) and base-shape baselines. The collection is the one the run was "
         "trained on.",
     )
-    e.add_argument("--run-dir", required=True, help="a folder written by `python -m opnet train`")
-    e.add_argument(
-        "--collection",
-        default=None,
-        help="the saved collection's .json the run was trained on, when it "
-        "is not a generated one (default: the run's own)",
-    )
-    e.add_argument("--device", default="auto", help="auto, cpu, cuda")
-    e.add_argument("--json", default=None, help="also write the rows to this JSON file")
-    e.add_argument("--data-root", default=None, help="where collections are cached")
+    add_config(e, EvaluateConfig)  # one option per field of opnet.experiments.config.EvaluateConfig
 
     r = sub.add_parser(
         "reproduce",
         help="Table 1 and the ablation: data, training, evaluation, results.json/md",
-        description="Build the humans at a preset, train Table 1's networks (Int+Ext, Int, Ext) and "
-        "the ablation grid (depth 1-4 x 7 input sets), evaluate against NN and the base "
-        "shape, and write OUT/results.json, OUT/results.md and OUT/figures/. A second "
-        "call skips finished runs; an interrupted one continues.",
+        description="Build a collection at a preset, run the plan's entries (Table 1's networks and baselines, "
+        "the rows beside it, the refinements, the ablation grid of depth 1-4 x 7 input sets and any of your own), "
+        "and write OUT/results.json, OUT/results.md and OUT/figures/ after each entry. A second call loads finished "
+        "runs; an interrupted one continues.",
     )
-    r.add_argument(
-        "--preset",
-        default="quick",
-        choices=["quick", "default", "paper"],
-        help="quick: minutes on a laptop CPU; default: about an hour on 2 cores; paper: GPU",
-    )
-    r.add_argument(
-        "--collection",
-        default="humans",
-        choices=["humans", "animals"],
-        help="humans (the paper's Table 1 beside ours) or animals (quadrupeds on one template; no --maps rows)",
-    )
-    r.add_argument("--out", default=None, help="output folder (default reproduce-<preset>, reproduce-animals-<preset>)")
-    r.add_argument("--device", default="auto", help="auto, cpu, cuda")
-    r.add_argument("--no-ablation", action="store_true", help="only Table 1")
-    r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
-    r.add_argument(
-        "--no-applications",
-        action="store_true",
-        help="skip the PointNet autoencoder and the analogy / interpolation benchmarks",
-    )
-    r.add_argument(
-        "--no-refine",
-        action="store_true",
-        help="skip the operator-matching rows (geometric baseline, + refinement; seconds per shape)",
-    )
-    r.add_argument(
-        "--no-maps",
-        action="store_true",
-        help="skip the computed-map rows (Table 1's Comp networks, other triangulations; maps take "
-        "about 0.6 s per shape and core; humans only)",
-    )
-    r.add_argument(
-        "--no-bodies",
-        action="store_true",
-        help="skip the rows of our variant trained with more distinct bodies and random poses (reproduce.MORE_BODIES; "
-        "humans only)",
-    )
-    r.add_argument("--data-root", default=None, help="where collections are cached")
+    add_config(r, ReproduceConfig)  # one option per field of opnet.experiments.config.ReproduceConfig
     return p
 
 
@@ -136,7 +92,7 @@ def _init_distributed(device: str):
         return False
     import torch
 
-    from .train import resolve_device
+    from .devices import resolve_device
 
     backend = "nccl" if resolve_device(device).type == "cuda" else "gloo"
     if backend == "nccl":
@@ -196,13 +152,12 @@ def _channels(coll, text: str) -> list:
     """``--channels`` as a list of channels: names the collection holds stay names, the others are resolved (built-in,
     registered, or ``module:Class`` imported); an unknown or unimportable one raises naming it.
     """
-    from .data.channels import split_channels
-    from .inner_products import get_inner_product
+    from .inner_products import get_inner_product, split_channels
 
     out = []
     for c in split_channels(text):
-        ip = c if isinstance(c, str) and c in coll.kinds else get_inner_product(c)
-        if not isinstance(ip, str) and ip.name in coll.kinds:
+        ip = c if isinstance(c, str) and c in coll.channels else get_inner_product(c)
+        if not isinstance(ip, str) and ip.name in coll.channels:
             ip = coll.channel_names([ip])[0]  # held already: its implementation is checked, its name kept
         out.append(ip)
     return out
@@ -237,7 +192,7 @@ def _run(args) -> int:
             coll = _collection(args)
             channels = None if config.channels is None else _channels(coll, config.channels)
             if channels is not None:
-                coll = coll.with_kinds([*coll.kinds, *(c for c in channels if c not in coll.kinds)])
+                coll = coll.with_channels([*coll.channels, *(c for c in channels if c not in coll.channels)])
             if distributed and _rank() == 0:
                 _barrier()
             _, history = fit(
@@ -254,6 +209,8 @@ def _run(args) -> int:
         return 0
 
     if args.command == "evaluate":
+        from .data.generators import PRESETS as DATA_PRESETS
+        from .devices import resolve_device
         from .evaluate import (
             base_shape_method,
             evaluate,
@@ -262,18 +219,21 @@ def _run(args) -> int:
             pointnet_method,
             test_sets_for,
         )
-        from .train import checkpoint_path, model_from_checkpoint, read_checkpoint, resolve_device
+        from .experiments.config import EvaluateConfig
+        from .options import config_from_args
+        from .train import checkpoint_path, model_from_checkpoint, read_checkpoint
 
-        path = checkpoint_path(args.run_dir)
-        ckpt = read_checkpoint(path, map_location=resolve_device(args.device))  # read once
+        config = config_from_args(EvaluateConfig, args)
+        path = checkpoint_path(config.run_dir)
+        ckpt = read_checkpoint(path, map_location=resolve_device(config.device))  # read once
         d = ckpt["config"]["data"]
-        if args.collection:
-            coll = read_collection(args.collection)
-        elif d["preset"] in ("quick", "default", "paper"):
+        if config.collection:
+            coll = read_collection(config.collection)
+        elif d["preset"] in DATA_PRESETS:
             coll = load_collection(
                 d["name"],
                 d["preset"],
-                args.data_root,
+                config.data_root,
                 resolution=d["resolution"],
                 seed=d["seed"],
                 bodies=d.get("bodies", "subject"),
@@ -281,51 +241,41 @@ def _run(args) -> int:
             )
         else:
             _parser().error(
-                f"{args.run_dir} was trained on {d['name']!r}, not a generated collection: pass its "
+                f"{config.run_dir} was trained on {d['name']!r}, not a generated collection: pass its "
                 "manifest with --collection PATH.json"
             )
         specs = ckpt["config"].get("channel_specs", {})
-        wanted = [c["name"] for c in d.get("channels", []) if c["name"] not in coll.kinds]  # channels of the user's
+        wanted = [c["name"] for c in d.get("channels", []) if c["name"] not in coll.channels]  # channels of the user's
         lost = [name for name in wanted if not specs.get(name)]
         if lost:
             raise ValueError(
-                f"{args.run_dir} was trained on the channels {lost}, whose class was not importable (defined in a "
+                f"{config.run_dir} was trained on the channels {lost}, whose class was not importable (defined in a "
                 "notebook or a script run as __main__); evaluate it from Python: "
-                "opnet.train.load_model(run_dir, collection.with_kinds([..., MyIP()])), or move the class into a "
+                "opnet.train.load_model(run_dir, collection.with_channels([..., MyIP()])), or move the class into a "
                 "module on the Python path and train again."
             )
         if wanted:
-            coll = coll.with_kinds([*coll.kinds, *(specs[name] for name in wanted)])
-        net = model_from_checkpoint(ckpt, path, coll, device=args.device)
+            coll = coll.with_channels([*coll.channels, *(specs[name] for name in wanted)])
+        net = model_from_checkpoint(ckpt, path, coll, device=config.device)
         if hasattr(net, "channels"):
             methods = [operatornet_method(net, coll), nearest_neighbour_method(coll, net.channels)]
         else:  # the PointNet autoencoder
             methods = [pointnet_method(net, coll), nearest_neighbour_method(coll)]
         rows = evaluate(coll, methods + [base_shape_method(coll)], test_sets_for(coll))
         print(_table(rows))
-        if args.json:
-            with open(args.json, "w") as f:
+        if config.json:
+            with open(config.json, "w") as f:
                 json.dump(rows, f, indent=1)
         return 0
 
+    from .experiments.config import ReproduceConfig
+    from .options import config_from_args
     from .reproduce import default_out, reproduce
 
-    rows = reproduce(
-        args.preset,
-        args.out,
-        device=args.device,
-        ablation=not args.no_ablation,
-        figures=not args.no_figures,
-        refine=not args.no_refine,
-        applications=not args.no_applications,
-        maps=False if args.no_maps else None,
-        bodies=False if args.no_bodies else None,
-        collection=args.collection,
-        data_root=args.data_root,
-        progress=True,
-    )
+    config = config_from_args(ReproduceConfig, args, progress=True)
+    rows = reproduce(config)
     print(_table([r for r in rows if r["table"] == "table1"]))
-    print(f"results: {args.out or default_out(args.preset, args.collection)}/results.md")
+    print(f"results: {config.out or default_out(config.preset, config.collection)}/results.md")
     return 0
 
 

@@ -10,7 +10,7 @@ works on shape differences; a :class:`ShapeAlgebra` turns its results into shape
 
 The representations, and how they combine:
 
-- :func:`operatornet_algebra`: the shapes' operators (all three kinds), combined by the operator algebra
+- :func:`operatornet_algebra`: the shapes' operators (the collection's channels), combined by the operator algebra
   (``scheme="multiplicative"`` as in the paper, or ``"linear"``: ``(1 − t) D_0 + t D_1`` and
   ``D_C + D_B − D_A``), decoded by a trained :class:`opnet.OperatorNet`; ``refine=`` then moves the decoded
   shape until its operators match the synthesised ones (:func:`opnet.reconstruct`).
@@ -77,7 +77,8 @@ class ShapeAlgebra:
     ``space``: ``"operators"`` (``(B, C, k, k)``, all of the collection's channels, combined by ``scheme``) or
     ``"latent"`` (codes ``(B, L)``, combined linearly). ``max_shapes``: the benchmarks evaluate a slow method
     on at most this many shapes; ``unrefined``: the method a refined one starts from (its rows then also hold
-    ``d_R_before``). Build one with :func:`operatornet_algebra`, :func:`pointnet_algebra` or
+    ``d_R_before``); ``fields``: the structured fields the benchmarks' rows of this method carry (its run's, or
+    ``baseline``), given when it is built. Build one with :func:`operatornet_algebra`, :func:`pointnet_algebra` or
     :func:`nearest_neighbour_algebra`.
     """
 
@@ -89,6 +90,7 @@ class ShapeAlgebra:
     scheme: str = "multiplicative"
     max_shapes: int | None = None
     unrefined: "ShapeAlgebra | None" = field(default=None, repr=False)
+    fields: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self):
         if self.space not in ("operators", "latent"):
@@ -183,13 +185,14 @@ def operatornet_algebra(
     refine: dict | None = None,
     max_shapes: int | None = None,
     name: str | None = None,
+    fields: dict | None = None,
 ) -> ShapeAlgebra:
     """Shapes → their operators → the operator algebra (``scheme``) → a trained OperatorNet → shapes.
 
     ``refine``: options of :func:`opnet.reconstruct` (e.g. ``dict(channels=("area", "extrinsic"), steps=300)``):
     the decoded shapes then move until their operators match the synthesised ones (seconds per shape; set
     ``max_shapes`` to bound the benchmarks). ``name`` defaults to ``"OperatorNet (mult.)"`` / ``"(linear)"``,
-    with ``" + refinement"``.
+    with ``" + refinement"``. ``fields``: its rows' structured fields (:attr:`ShapeAlgebra.fields`).
     """
     if not hasattr(net, "channels"):
         raise TypeError(
@@ -206,6 +209,7 @@ def operatornet_algebra(
         "operators",
         scheme,
         max_shapes if refine is None else None,
+        fields=dict(fields or {}),
     )
     if refine is None:
         return plain
@@ -217,7 +221,7 @@ def operatornet_algebra(
             f"refine= sets options of opnet.reconstruct other than init and progress (the decoded "
             f"shape is the start; no bar per call), got {sorted({'init', 'progress'} & set(options))}."
         )
-    options["channels"] = collection.inner_products(options.get("channels", collection.kinds))
+    options["channels"] = collection.inner_products(options.get("channels", collection.channels))
     ref_chans = collection.channel_indices(options["channels"])
 
     def decode(R):
@@ -232,11 +236,14 @@ def operatornet_algebra(
         scheme,
         max_shapes,
         plain,
+        dict(fields or {}),
     )
 
 
-def pointnet_algebra(net, collection, *, name: str = "PointNet AE") -> ShapeAlgebra:
-    """Shapes → a PointNet autoencoder's codes → linear algebra in the code → its decoder → shapes."""
+def pointnet_algebra(net, collection, *, name: str = "PointNet AE", fields: dict | None = None) -> ShapeAlgebra:
+    """Shapes → a PointNet autoencoder's codes → linear algebra in the code → its decoder → shapes (``fields``: its
+    rows' structured fields).
+    """
     import torch
 
     if not (hasattr(net, "encode") and hasattr(net, "decode")):
@@ -251,17 +258,23 @@ def pointnet_algebra(net, collection, *, name: str = "PointNet AE") -> ShapeAlge
         with torch.no_grad():
             return f(torch.as_tensor(np.asarray(x, dtype=np.float32), device=device)).double().cpu().numpy()
 
-    return ShapeAlgebra(name, collection, lambda V: run(net.encode, V), lambda Z: run(net.decode, Z), "latent")
+    encode, decode = lambda V: run(net.encode, V), lambda Z: run(net.decode, Z)
+    return ShapeAlgebra(name, collection, encode, decode, "latent", fields=dict(fields or {}))
 
 
 def nearest_neighbour_algebra(
-    collection, channels=None, *, scheme: str = "multiplicative", name: str | None = None
+    collection,
+    channels=None,
+    *,
+    scheme: str = "multiplicative",
+    name: str | None = None,
+    fields: dict | None = None,
 ) -> ShapeAlgebra:
     """Operators combined by the algebra (``scheme``), then the ``train`` shape with the nearest operators of
     ``channels`` (Frobenius; default all of the collection's) is returned: the paper's NN, which can only answer
-    with shapes it has seen.
+    with shapes it has seen. ``fields``: its rows' structured fields (default ``baseline`` ``"nearest_neighbour"``).
     """
-    channels = collection.kinds if channels is None else channels
+    channels = collection.channels if channels is None else channels
     index = OperatorIndex(collection, channels)
     chans = collection.channel_indices(channels)
     return ShapeAlgebra(
@@ -271,6 +284,7 @@ def nearest_neighbour_algebra(
         lambda R: collection.vertices[index.nearest(R[:, chans])].astype(np.float64),
         "operators",
         scheme,
+        fields=dict(baseline="nearest_neighbour") if fields is None else dict(fields),
     )
 
 
@@ -431,7 +445,8 @@ def analogy_benchmark(collection, methods, quadruples, *, progress: bool | None 
     """One row per (method, quadruple kind): ``method``, ``kind``, ``n``, the mean and median ``d_R`` (length²),
     ``d_V``, ``d_E`` of the synthesised ``X`` against the true one, and ``d_R_direct``: the same method's error on
     ``X`` given ``X`` itself (its reconstruction floor: what is left is the algebra's error). Refined methods add
-    ``d_R_before`` (their unrefined method on the same quadruples).
+    ``d_R_before`` (their unrefined method on the same quadruples); each row also holds its method's
+    :attr:`~ShapeAlgebra.fields`.
 
     ``methods``: :class:`ShapeAlgebra` objects; ``quadruples``: a :class:`Quadruples` or a list of them.
     """
@@ -450,7 +465,7 @@ def analogy_benchmark(collection, methods, quadruples, *, progress: bool | None 
             row["d_R_direct"] = float(np.mean(d_R(Q.X[:q], m.reconstruct(Q.X[:q]))))
             if m.unrefined is not None:
                 row["d_R_before"] = float(np.mean(d_R(Q.X[:q], m.unrefined.analogy(Q.A[:q], Q.B[:q], Q.C[:q]))))
-            rows.append(row)
+            rows.append({**row, **m.fields})
             bar.update(1)
     bar.close()
     return rows
@@ -489,6 +504,7 @@ def interpolation_benchmark(collection, methods, paths, *, progress: bool | None
     """One row per (method, path kind): ``method``, ``kind``, ``scheme``, ``n_paths``, ``steps`` and the means over
     the paths of :func:`path_metrics` (plus the worst ``smoothness``, ``smoothness_max``). A first row per kind,
     ``"Ground truth"``, scores the true paths themselves (their own distortion: what bending costs in edge lengths).
+    A method's rows also hold its :attr:`~ShapeAlgebra.fields`.
 
     ``paths``: a :class:`Paths` or a list of them; ``methods``: :class:`ShapeAlgebra` objects.
     """
@@ -511,7 +527,7 @@ def interpolation_benchmark(collection, methods, paths, *, progress: bool | None
                 row[key] = float(np.nanmean([r[key] for r in metrics]))
             row["smoothness_max"] = float(np.nanmax([r["smoothness"] for r in metrics]))
             row["stuck_paths"] = int(np.sum([np.isnan(r["smoothness"]) for r in metrics]))
-            rows.append(row)
+            rows.append(row if m is None else {**row, **m.fields})
             bar.update(1)
     bar.close()
     return rows

@@ -32,10 +32,10 @@ from typing import Callable
 import numpy as np
 
 from ._checks import check_int, real_array
-from .inner_products import ChannelError, InnerProduct, get_inner_product
+from ._deprecation import renamed_keyword
+from .inner_products import ChannelError, InnerProduct, channel_label, channel_names  # the channel vocabulary
 from .mesh import edge_face_counts
 from .metrics import d_E, d_R, d_V, rigid_align
-from .shape_difference import KINDS
 
 __all__ = [
     "TEST_SETS",
@@ -70,34 +70,6 @@ TEST_SETS = ("eval_subset", "test", "test_subjects")
 SPECIES_SETS = (*TEST_SETS, "unseen_species")
 #: Every set :func:`evaluate` can report on: the test sets, and ``"val"`` (where experiments are chosen).
 SETS = ("val", *SPECIES_SETS)
-_LABELS = {KINDS: "Int+Ext", ("area", "conformal"): "Int", ("extrinsic",): "Ext"}
-_SHORT = {"area": "Area", "conformal": "Conf", "extrinsic": "Ext"}
-
-
-def channel_names(channels) -> tuple[str, ...]:
-    """Names of ``channels`` (names as they are, inner products by their ``name``), without looking them up."""
-    if isinstance(channels, str):
-        from .data.channels import split_channels
-
-        channels = split_channels(channels)
-    return tuple(c if isinstance(c, str) else get_inner_product(c).name for c in channels)
-
-
-def channel_label(channels) -> str:
-    """A display name of an input combination: the paper's ``Int+Ext`` (all three), ``Int`` (area + conformal),
-    ``Ext`` (extrinsic) or the ablation's short names (``Area``, ``Conf``, ``A+E``, ``A+C``, ``E+C``); with channels
-    of your own, their names joined by ``+`` (built-ins shortened: ``Area+my ip``). For display only: rows keep the
-    channels themselves in their ``channels`` field.
-    """
-    from .shape_difference import CHANNEL_SETS
-
-    channels = channel_names(channels)
-    if set(channels) <= set(KINDS):
-        key = tuple(c for c in KINDS if c in channels)
-        if key in _LABELS:
-            return _LABELS[key]
-        return next(name for name, kinds in CHANNEL_SETS.items() if set(kinds) == set(key))
-    return "+".join(_SHORT.get(c, c) for c in channels)
 
 
 def test_sets_for(collection) -> tuple:
@@ -131,7 +103,10 @@ def test_set_indices(collection, test_set: str) -> np.ndarray:
 class Method:
     """A reconstruction method: ``reconstruct(indices) → (len(indices), n, 3)`` vertices of a collection.
 
-    ``max_shapes``: evaluate it on at most this many shapes of each test set, evenly spaced (for slow methods).
+    ``info``: the structured fields its rows carry (its run's, or ``baseline``; given when it is built, never set
+    afterwards). ``max_shapes``: evaluate it on at most this many shapes of each test set, evenly spaced (for slow
+    methods). ``measures``: ``measures(indices) → dict`` of further fields of a row measured on the same shapes (a
+    refined method's ``d_R_before``), not counted in its time.
     """
 
     name: str
@@ -140,6 +115,7 @@ class Method:
     depth: int | None = None
     info: dict = field(default_factory=dict)
     max_shapes: int | None = None
+    measures: Callable[[np.ndarray], dict] | None = field(default=None, repr=False)
 
     def __post_init__(self):
         check_int("max_shapes", self.max_shapes, none_ok=True)
@@ -169,34 +145,44 @@ def _predict(net, operators: np.ndarray, batch_size: int = 256) -> np.ndarray:
     return np.concatenate(out) if out else np.zeros((0, net.n_vertices, 3))
 
 
-def decode(net, operators, kinds=KINDS) -> np.ndarray:
+@renamed_keyword("kinds", "channels")
+def decode(net, operators, channels=None) -> np.ndarray:
     """Shapes from shape differences: vertices ``(n, 3)`` (or ``(B, n, 3)``) on the base's triangulation, float64.
 
-    ``operators`` ``(C, k, k)`` or ``(B, C, k, k)`` (numpy or torch), whose channels are ``kinds`` in order
-    (:func:`opnet.encode`'s default: all three). The network's own channels are picked from them, so one
-    encoding serves networks of any channel subset. The output is in the network's frame: shape
-    differences do not see rigid motions, so align it (:func:`opnet.rigid_align`) before comparing.
+    ``operators`` ``(C, k, k)`` or ``(B, C, k, k)`` (numpy or torch), whose channels are ``channels`` in order;
+    default (``None``) the network's own, ``net.channels``, in its order: what :func:`opnet.encode` gives for the
+    collection the network was trained on (``opnet.decode(net, opnet.encode(mesh, collection))``). With
+    ``channels`` named, the network's are picked from them, so one encoding (e.g. all three, ``opnet.KINDS``)
+    serves networks of any channel subset. The output is in the network's frame: shape differences do not see
+    rigid motions, so align it (:func:`opnet.rigid_align`) before comparing.
     """
     if not hasattr(net, "channels") or not hasattr(net, "k"):
         raise TypeError(f"net must be an OperatorNet (opnet.train.load_model(run_dir)), got {type(net).__name__}.")
     ops = real_array("operators", operators, dtype=np.float32)
-    if isinstance(kinds, (str, InnerProduct)):
-        raise TypeError(f"kinds must be a sequence of channels, e.g. ({kinds!r},), not a single one.")
-    kinds = channel_names(kinds)
+    if isinstance(channels, (str, InnerProduct)):
+        raise TypeError(f"channels must be a sequence of channels, e.g. ({channels!r},), not a single one.")
+    named = channels is not None
+    channels = channel_names(net.channels if channels is None else channels)
     single = ops.ndim == 3
     batch = ops[None] if single else ops
-    if batch.ndim != 4 or batch.shape[1:] != (len(kinds), net.k, net.k):
+    if batch.ndim != 4 or batch.shape[1:] != (len(channels), net.k, net.k):
+        hint = (
+            ""
+            if named
+            else " (the network's channels, the default; for operators of other channels, e.g. encode's three for "
+            "a basis, pass channels=opnet.KINDS)"
+        )
         raise ValueError(
-            f"operators must be (C, k, k) or (B, C, k, k) with C = {len(kinds)} channels {kinds} and "
+            f"operators must be (C, k, k) or (B, C, k, k) with C = {len(channels)} channels {channels}{hint} and "
             f"k = {net.k} (the network's), got shape {ops.shape}."
         )
-    missing = [c for c in net.channels if c not in kinds]
+    missing = [c for c in net.channels if c not in channels]
     if missing:
         raise ValueError(
-            f"the network reads {missing}, which the operators (channels {kinds}) do not hold; "
-            "encode them with kinds=net.channels."
+            f"the network reads {missing}, which the operators (channels {channels}) do not hold; "
+            "encode them with channels=net.channels."
         )
-    out = _predict(net, batch[:, [kinds.index(c) for c in net.channels]])  # float32 already: no copy
+    out = _predict(net, batch[:, [channels.index(c) for c in net.channels]])  # float32 already: no copy
     return out[0] if single else out
 
 
@@ -217,16 +203,18 @@ def _network_operators(net, collection) -> np.ndarray:
     return ops
 
 
-def operatornet_method(net, collection, name: str | None = None) -> Method:
-    """OperatorNet decoding the collection's operators of its own channels."""
+def operatornet_method(net, collection, name: str | None = None, *, info: dict | None = None) -> Method:
+    """OperatorNet decoding the collection's operators of its own channels (``info``: its rows' fields)."""
     ops = _network_operators(net, collection)
     name = name or f"OperatorNet ({channel_label(net.channels)})"
-    return Method(name, lambda idx: predict(net, ops[idx]), tuple(net.channels), net.depth)
+    return Method(name, lambda idx: predict(net, ops[idx]), tuple(net.channels), net.depth, dict(info or {}))
 
 
-def pointnet_method(net, collection, name: str = "PointNet AE") -> Method:
-    """The PointNet autoencoder reconstructing the collection's shapes from their own coordinates."""
-    return Method(name, lambda idx: predict(net, collection.vertices[idx]))
+def pointnet_method(net, collection, name: str = "PointNet AE", *, info: dict | None = None) -> Method:
+    """The PointNet autoencoder reconstructing the collection's shapes from their own coordinates (``info``: its
+    rows' fields).
+    """
+    return Method(name, lambda idx: predict(net, collection.vertices[idx]), info=dict(info or {}))
 
 
 class OperatorIndex:
@@ -259,72 +247,89 @@ def nearest_neighbour(collection, indices, channels=None, *, chunk: int = 512) -
     Distance: Frobenius norm of the difference of the stacked operators of ``channels`` (default all of the
     collection's).
     """
-    return OperatorIndex(collection, collection.kinds if channels is None else channels).query(indices, chunk)
+    return OperatorIndex(collection, collection.channels if channels is None else channels).query(indices, chunk)
 
 
-def nearest_neighbour_method(collection, channels=None, name: str | None = None) -> Method:
+def nearest_neighbour_method(collection, channels=None, name: str | None = None, *, info: dict | None = None) -> Method:
     """The paper's NN baseline: retrieve the nearest training shape by operator distance (``channels``: default all of
-    the collection's; give a network's to compare on the same input).
+    the collection's; give a network's to compare on the same input). ``info``: its rows' fields (default
+    ``baseline`` ``"nearest_neighbour"``).
     """
-    channels = collection.channel_names(collection.kinds if channels is None else channels)
+    channels = collection.channel_names(collection.channels if channels is None else channels)
     name = name or f"Nearest neighbour ({channel_label(channels)})"
     index = OperatorIndex(collection, channels)
-    return Method(name, lambda idx: collection.vertices[index.query(idx)].astype(np.float64), channels)
+    info = dict(baseline="nearest_neighbour") if info is None else dict(info)
+    return Method(name, lambda idx: collection.vertices[index.query(idx)].astype(np.float64), channels, info=info)
 
 
-def base_shape_method(collection) -> Method:
-    """The base shape for every input: the error of doing nothing."""
+def base_shape_method(collection, *, info: dict | None = None) -> Method:
+    """The base shape for every input: the error of doing nothing (``info``: its rows' fields, default ``baseline``
+    ``"base_shape"``).
+    """
     base = collection.base_basis.mesh.vertices
-    return Method("Base shape", lambda idx: np.broadcast_to(base, (len(idx), *base.shape)).copy())
+    info = dict(baseline="base_shape") if info is None else dict(info)
+    return Method("Base shape", lambda idx: np.broadcast_to(base, (len(idx), *base.shape)).copy(), info=info)
 
 
-def geometric_method(collection, channels=None, *, max_shapes: int | None = None, **options) -> Method:
+def geometric_method(
+    collection, channels=None, *, max_shapes: int | None = None, info: dict | None = None, **options
+) -> Method:
     """The geometric baseline: :func:`opnet.reconstruct` from the base shape (the paper's SfL / FuncChar row),
     i.e. :func:`refined_method` of :func:`base_shape_method` (its rows' ``d_R_before`` is the base shape's error).
 
-    ``options`` go to :func:`opnet.reconstruct` (``steps``, ``smoothness``, ...).
+    ``options`` go to :func:`opnet.reconstruct` (``steps``, ``smoothness``, ...); ``info``: its rows' fields (default
+    ``baseline`` ``"geometric"``).
     """
     return refined_method(
         base_shape_method(collection),
         collection,
         channels,
         max_shapes=max_shapes,
-        name=f"Geometric ({channel_label(collection.kinds if channels is None else channels)})",
+        name=f"Geometric ({channel_label(collection.channels if channels is None else channels)})",
+        info=dict(baseline="geometric") if info is None else info,
         **options,
     )
 
 
 def refined_method(
-    method: Method, collection, channels=None, *, max_shapes: int | None = None, name: str | None = None, **options
+    method: Method,
+    collection,
+    channels=None,
+    *,
+    max_shapes: int | None = None,
+    name: str | None = None,
+    info: dict | None = None,
+    **options,
 ) -> Method:
     """``method`` followed by :func:`opnet.reconstruct` from its output: its vertices move until their operators
     (``channels``, default all of the collection's; each needs a ``project_torch``) match the input's. ``options`` go
-    to :func:`opnet.reconstruct`. Its rows also hold
-    ``d_R_before``, the mean ``d_R`` of ``method`` on the same shapes. ``name``: default ``"<method> + refinement"``.
+    to :func:`opnet.reconstruct`. Its rows also hold ``d_R_before``, the mean ``d_R`` of ``method`` on the same
+    shapes (:attr:`Method.measures`). ``name``: default ``"<method> + refinement"``; ``info``: its rows' fields.
     """
     from .geometric import reconstruct
 
-    ips = collection.inner_products(collection.kinds if channels is None else channels)
+    ips = collection.inner_products(collection.channels if channels is None else channels)
     channels = tuple(ip.name for ip in ips)
     chans = collection.channel_indices(channels)
 
     def run(idx):
-        init = method.reconstruct(idx)
-        out.info["d_R_before"] = float(np.mean(d_R(collection.vertices[idx], init)))  # on the same shapes
         return reconstruct(
             collection.operators[idx][:, chans],
             collection.base_basis,
-            init=init,
+            init=method.reconstruct(idx),
             channels=ips,
             progress=False,
             **options,
         )
 
-    out = Method(name or f"{method.name} + refinement", run, channels, method.depth, max_shapes=max_shapes)
-    return out
+    def before(idx):  # the start's error on the same shapes
+        return dict(d_R_before=float(np.mean(d_R(collection.vertices[idx], method.reconstruct(idx)))))
+
+    name = name or f"{method.name} + refinement"
+    return Method(name, run, channels, method.depth, dict(info or {}), max_shapes, before)
 
 
-def ensemble_method(methods, name: str | None = None) -> Method:
+def ensemble_method(methods, name: str | None = None, *, info: dict | None = None) -> Method:
     """The mean of several methods' reconstructions of the same collection (e.g. networks trained with other seeds or
     on other bodies), each first moved rigidly onto the first one's (Kabsch: the loss, eq. 9, leaves each network's
     placement free). Its rows carry the first method's channels and depth; it is evaluated on at most the fewest
@@ -336,6 +341,8 @@ def ensemble_method(methods, name: str | None = None) -> Method:
         At least two, reconstructing the same collection's shapes (``(N, n, 3)`` each).
     name : str, optional
         Default ``"Ensemble of <count>"``.
+    info : dict, optional
+        Its rows' structured fields.
     """
     methods = list(methods)
     if len(methods) < 2 or not all(isinstance(m, Method) for m in methods):
@@ -347,9 +354,8 @@ def ensemble_method(methods, name: str | None = None) -> Method:
 
     first = methods[0]
     limits = [m.max_shapes for m in methods if m.max_shapes is not None]  # as slow as its slowest member
-    return Method(
-        name or f"Ensemble of {len(methods)}", run, first.channels, first.depth, max_shapes=min(limits, default=None)
-    )
+    name = name or f"Ensemble of {len(methods)}"
+    return Method(name, run, first.channels, first.depth, dict(info or {}), min(limits, default=None))
 
 
 def shape_errors(gt, recon, faces, *, batch_size: int = 256) -> dict:
@@ -410,6 +416,7 @@ def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = N
             recon = m.reconstruct(idx)
             seconds = (time.perf_counter() - start) / len(idx)
             err = shape_errors(collection.vertices[idx], recon, collection.faces)
+            measured = {} if m.measures is None else m.measures(idx)
             row = dict(
                 method=m.name,
                 channels=list(m.channels),
@@ -418,5 +425,5 @@ def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = N
                 n_shapes=int(len(idx)),
                 seconds_per_shape=seconds,
             )
-            rows.append({**row, **summarize(err), **m.info, **(extra or {})})
+            rows.append({**row, **summarize(err), **measured, **m.info, **(extra or {})})
     return rows

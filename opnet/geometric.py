@@ -29,7 +29,8 @@ import torch
 from tqdm.auto import tqdm
 
 from ._checks import is_integer, real_array
-from .inner_products import checked_gram, get_inner_products
+from .devices import resolve_device
+from .inner_products import checked_gram, get_inner_products, split_channels
 from .mesh import check_shapes, unique_edges
 from .shape_difference import KINDS, pinv_psd
 from .spectral import Eigenbasis, cotan_edge_weights
@@ -138,8 +139,7 @@ def reconstruct(
     lr : L-BFGS: the first step moves the vertex with the largest gradient by ``lr`` % of the shape's
         bounding-box diagonal (default 1; later steps are scaled by the curvature pairs). Adam: its step size in
         length units (default 1e-3).
-    smoothness : weight of the displacement's Dirichlet energy (0 disables it; the default 1 was chosen on
-        ``val``, ``docs/results.md``).
+    smoothness : weight of the displacement's Dirichlet energy (0 disables it; default 1).
     batch_size : shapes optimised together (each has its own objective; the batch shares the iterations).
     device : where to compute: ``"cpu"`` (default), ``"cuda"``, or ``"auto"`` (CUDA when available); float64.
     callback : called as ``callback(step, X, mismatch)`` after every step, with ``step`` from 0 (the start),
@@ -147,9 +147,7 @@ def reconstruct(
         mismatch (tensors, detached); e.g. to record curves. Batches come one after the other.
     coarse_to_fine : increasing sizes ``m < k``, e.g. ``(20, 40)``: first match the leading ``m × m`` operators
         (:func:`truncate_operators`, on ``base_basis.truncate(m)``) for ``steps`` steps at each size in turn, then
-        the full ones for ``steps`` more. Measured on ``val`` by ``benchmarks/refinement.py`` (the docs' results
-        page): about as accurate as one stage with as many steps, at a little less CPU time. ``callback`` then sees
-        the steps of all stages, numbered on.
+        the full ones for ``steps`` more. ``callback`` then sees the steps of all stages, numbered on.
     progress : show a progress bar over the steps of all batches (default: on).
 
     Returns
@@ -163,9 +161,6 @@ def reconstruct(
     """
     if not isinstance(base_basis, Eigenbasis):
         raise TypeError(f"base_basis must be an opnet.Eigenbasis, got {type(base_basis).__name__}.")
-    from .data.channels import split_channels
-    from .train import resolve_device
-
     channels = get_inner_products(split_channels(channels))  # instances: each channel's project_torch is used
     target = _as_operators(operators, tuple(ip.name for ip in channels), base_basis.k)
     X_init = _as_init(init, base_basis, len(target))

@@ -24,6 +24,11 @@ implementation (:func:`channel_digest`: the code of its class, without docstring
 Collections and runs record both, so operators computed by one version of a class are never mixed with another's.
 A channel is given as an instance, a class, a built-in or registered name (:func:`register_inner_product`), or
 ``"package.module:Class"`` (imported; how the command line names your own class).
+
+**The channel vocabulary** lives here too: :func:`~opnet.inner_products.split_channels` reads what a user or the command
+line writes (``"area,mod:Class"``, a short name of :data:`~opnet.inner_products.CHANNEL_SETS` such as ``"A+E"``, one
+channel or a sequence), :func:`channel_names` names channels without looking them up, and :func:`channel_label` gives a
+combination its display name (``Int+Ext``, ``A+E``, ``Area+my ip``).
 """
 
 from __future__ import annotations
@@ -40,6 +45,7 @@ import numpy as np
 from . import _backend as B
 from . import _memo
 from ._checks import describe
+from ._deprecation import renamed_keyword
 from .mesh import REFUSE_QUALITY
 from .spectral import (
     areas_and_cotan_weights,
@@ -62,6 +68,9 @@ __all__ = [
     "KINDS",
     "CHANNEL_SETS",
     "ChannelError",
+    "split_channels",
+    "channel_names",
+    "channel_label",
     "get_inner_product",
     "get_inner_products",
     "register_inner_product",
@@ -77,7 +86,7 @@ __all__ = [
 ]
 
 
-#: The paper's three shape differences, in the channel order of a collection built without ``kinds=``.
+#: The paper's three shape differences, in the channel order of a collection built without ``channels=``.
 KINDS = ("area", "conformal", "extrinsic")
 #: The paper's input combinations (Table 1 and the ablation of Appendix B), by their short names.
 CHANNEL_SETS = {
@@ -313,17 +322,64 @@ def _extrinsic_gram(evecs, a, vertices):
     return B.weighted_gram(evecs, rowsum) - left @ p.swapaxes(-1, -2)
 
 
-def get_inner_products(kinds) -> list[InnerProduct]:
-    """The inner products of a non-empty sequence of kinds (each as in :func:`get_inner_product`), without repeats."""
-    if isinstance(kinds, (str, InnerProduct)):
-        raise TypeError(f"kinds must be a sequence of kinds, e.g. ({kinds!r},), not a single one.")
-    ips = [get_inner_product(kind) for kind in kinds]
+@renamed_keyword("kinds", "channels")
+def get_inner_products(channels) -> list[InnerProduct]:
+    """The inner products of a non-empty sequence of channels (each as in :func:`get_inner_product`), without
+    repeats.
+    """
+    if isinstance(channels, (str, InnerProduct)):
+        raise TypeError(f"channels must be a sequence of channels, e.g. ({channels!r},), not a single one.")
+    ips = [get_inner_product(channel) for channel in channels]
     if not ips:
-        raise ValueError("kinds is empty: ask for at least one of opnet.KINDS (or an InnerProduct).")
+        raise ValueError("channels is empty: ask for at least one of opnet.KINDS (or an InnerProduct).")
     names = [ip.name for ip in ips]
     if len(set(names)) != len(names):
-        raise ValueError(f"kinds names a channel twice: {names}; give each once.")
+        raise ValueError(f"channels names a channel twice: {names}; give each once.")
     return ips
+
+
+# -- the channel vocabulary: what users and the command line write, and display names ----------------------------
+
+_LABELS = {KINDS: "Int+Ext", ("area", "conformal"): "Int", ("extrinsic",): "Ext"}
+_SHORT = {"area": "Area", "conformal": "Conf", "extrinsic": "Ext"}
+
+
+def split_channels(channels) -> list:
+    """``"area,extrinsic"`` (names or ``"module:Class"``, comma-separated), a short name of
+    :data:`~opnet.inner_products.CHANNEL_SETS` (``"A+E"``), one channel or a sequence of channels → a list of channels
+    (names, instances, classes).
+    """
+    if isinstance(channels, str):
+        if channels in CHANNEL_SETS:
+            return list(CHANNEL_SETS[channels])
+        return [c.strip() for c in channels.split(",")]
+    if isinstance(channels, InnerProduct) or (isinstance(channels, type) and issubclass(channels, InnerProduct)):
+        return [channels]
+    return list(channels)
+
+
+def channel_names(channels) -> tuple[str, ...]:
+    """Names of ``channels`` (names as they are, inner products by their ``name``; a string is read by
+    :func:`~opnet.inner_products.split_channels`), without looking the names up.
+    """
+    if isinstance(channels, str):
+        channels = split_channels(channels)
+    return tuple(c if isinstance(c, str) else get_inner_product(c).name for c in channels)
+
+
+def channel_label(channels) -> str:
+    """A display name of an input combination: the paper's ``Int+Ext`` (all three), ``Int`` (area + conformal),
+    ``Ext`` (extrinsic) or the ablation's short names (``Area``, ``Conf``, ``A+E``, ``A+C``, ``E+C``); with channels
+    of your own, their names joined by ``+`` (built-ins shortened: ``Area+my ip``). For display only: rows keep the
+    channels themselves in their ``channels`` field.
+    """
+    channels = channel_names(channels)
+    if set(channels) <= set(KINDS):
+        key = tuple(c for c in KINDS if c in channels)
+        if key in _LABELS:
+            return _LABELS[key]
+        return next(name for name, names in CHANNEL_SETS.items() if set(names) == set(key))
+    return "+".join(_SHORT.get(c, c) for c in channels)
 
 
 def checked_gram(ip: InnerProduct, method: str, *args) -> np.ndarray:
@@ -459,7 +515,7 @@ def get_inner_product(kind) -> InnerProduct:
         return _import_inner_product(kind)
     raise ChannelError(
         f"unknown channel {kind!r}; the known channels are {sorted(known)}. For your own inner product pass the "
-        "instance (collection.with_kinds([..., MyIP()])), opnet.register_inner_product(MyIP()) once, or "
+        "instance (collection.with_channels([..., MyIP()])), opnet.register_inner_product(MyIP()) once, or "
         "'package.module:MyIP'."
     )
 

@@ -10,8 +10,7 @@ conventions are opnet's: ``FM_12`` ``(k_mesh, k_base)`` carries base coefficient
 1. Both eigenbases are opnet's (:func:`opnet.eigenbasis`), handed to pyFM's ``TriMesh``.
 2. WKS descriptors, and a functional-map solve with descriptor preservation, Laplacian and
    descriptor commutativity, and the orientation-preserving term of Ren et al. (2018). A body is
-   left–right symmetric and WKS cannot tell its sides apart: without that term the maps of posed
-   bodies are wrong or mirrored, with it none is mirrored (``benchmarks/matching.py`` counts them).
+   left–right symmetric and WKS cannot tell its sides apart: the term keeps a map from mirroring it.
 3. ZoomOut (Melzi et al. 2019) from ``k_init`` to ``k`` functions.
 4. A precise map (Ezuz & Ben-Chen 2017): each mesh vertex is projected onto a base triangle in the
    spectral embedding, giving barycentric coordinates: the sparse soft map ``to_base``
@@ -30,6 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from ._deprecation import renamed_keyword
 from ._extras import require
 from .fmaps import FunctionalMap
 from .inner_products import checked_gram, get_inner_products
@@ -284,9 +284,10 @@ def compute_map(
     return SurfaceMap(base_basis, mesh, _barycentric_map(face, bary, base.faces, base.n_vertices), C)
 
 
-def operators_through_map(surface_map, kinds=KINDS) -> np.ndarray:
-    """Shape differences ``(len(kinds), k, k)`` of ``surface_map.mesh`` against the base, through the map; for a
-    list of maps onto one base, ``(len(maps), len(kinds), k, k)`` (the base's ``K_0⁺`` computed once).
+@renamed_keyword("kinds", "channels")
+def operators_through_map(surface_map, channels=KINDS) -> np.ndarray:
+    """Shape differences ``(len(channels), k, k)`` of ``surface_map.mesh`` against the base, through the map; for a
+    list of maps onto one base, ``(len(maps), len(channels), k, k)`` (the base's ``K_0⁺`` computed once).
 
     ``D = K_0⁺ K`` with ``K`` each inner product of the mesh pulled back onto the base's functions
     (:meth:`opnet.InnerProduct.pull_back`). With the identity map this is the fast path exactly.
@@ -301,7 +302,7 @@ def operators_through_map(surface_map, kinds=KINDS) -> np.ndarray:
     basis = maps[0].base
     if any(sm.base is not basis for sm in maps):
         raise ValueError("the maps go onto different bases; encode them one base at a time.")
-    ips = get_inner_products(kinds)
+    ips = get_inner_products(channels)
     pinvs = base_pinvs(basis, ips)
     out = np.stack(
         [
@@ -317,29 +318,40 @@ def operators_through_map(surface_map, kinds=KINDS) -> np.ndarray:
     return out[0] if single else out
 
 
-def encode(
-    mesh: Mesh, base_basis: Eigenbasis, *, fmap=None, kinds=KINDS, warn: bool = True, **map_options
-) -> np.ndarray:
-    """The shape differences ``(len(kinds), k, k)`` of any mesh against the base: OperatorNet's input.
+@renamed_keyword("kinds", "channels")
+def encode(mesh: Mesh, base_basis, *, fmap=None, channels=None, warn: bool = True, **map_options) -> np.ndarray:
+    """The shape differences ``(len(channels), k, k)`` of any mesh against the base: OperatorNet's input.
 
     Parameters
     ----------
     mesh : Mesh
         The shape (e.g. ``opnet.load_mesh(path)``).
-    base_basis : Eigenbasis
-        The base's eigenbasis (a collection's ``base_basis``).
+    base_basis : Eigenbasis or Collection
+        The base's eigenbasis (a collection's ``base_basis``), or the collection itself
+        (:class:`opnet.data.Collection`), whose base and channels it then encodes against.
     fmap : None, "computed", array or SurfaceMap
         How the mesh corresponds to the base. ``None``: it has the base's triangulation (same faces),
         and the fast path is used. ``"computed"``: no correspondence is known, :func:`compute_map` finds
         one (``map_options`` go to it). An integer array ``(n_mesh,)``: the base vertex of each mesh
         vertex. A :class:`SurfaceMap`: a map already computed.
-    kinds : sequence of kinds
-        The channels, in order (default area, conformal, extrinsic, as in the collections).
+    channels : sequence of channels, optional
+        The channels to encode, in order (names, inner products). Default: those of the collection given as
+        ``base_basis`` (all of its :attr:`~opnet.data.Collection.channels`, in its order: what a network trained on
+        it reads by default, so ``opnet.decode(net, opnet.encode(mesh, collection))`` names no channels); with an
+        eigenbasis, the paper's three (:data:`opnet.KINDS`). A collection computes its channels with the inner
+        products it holds (:meth:`~opnet.data.Collection.inner_products`: a channel of your own read back from disk
+        needs its instance or registration).
     warn : bool
         Warn (:class:`MapQualityWarning`) when a computed map looks wrong: it collapses (coverage below
         0.8) or reverses orientation (below 0.5). See :meth:`SurfaceMap.quality`.
     """
-    check_base(base_basis)
+    if hasattr(base_basis, "base_basis") and hasattr(base_basis, "inner_products"):  # a collection (duck-typed)
+        collection, base_basis = base_basis, base_basis.base_basis
+        check_base(base_basis)
+        ips = collection.inner_products(channels)  # None: all of its channels, in its order
+    else:
+        check_base(base_basis)
+        ips = get_inner_products(KINDS if channels is None else channels)
     mesh = _check_mesh(mesh)
     base = base_basis.mesh
     if map_options and not (isinstance(fmap, str) and fmap == "computed"):
@@ -351,7 +363,7 @@ def encode(
                 f"has {mesh.n_vertices} vertices{'' if mesh.n_vertices != base.n_vertices else ' and other faces'}: "
                 "pass fmap='computed' to compute a map, or fmap=p2p if you know each vertex's base vertex."
             )
-        return fast_path(base_basis, mesh.vertices[None], get_inner_products(kinds))[0]  # the mesh is checked
+        return fast_path(base_basis, mesh.vertices[None], ips)[0]  # the mesh is checked
     if isinstance(fmap, str):
         if fmap != "computed":
             raise ValueError(f"fmap must be None, 'computed', an integer vertex map or a SurfaceMap, got {fmap!r}.")
@@ -369,7 +381,7 @@ def encode(
             raise ValueError("this SurfaceMap maps another mesh or base; compute it for this mesh and base_basis.")
     else:
         fmap = map_from_p2p(base_basis, mesh, fmap)
-    return operators_through_map(fmap, kinds)
+    return operators_through_map(fmap, ips)
 
 
 def _warn_if_poor(surface_map: SurfaceMap) -> None:

@@ -81,8 +81,7 @@ class OperatorNet(nn.Module):
     subtract_identity : feed the encoder ``D − I`` instead of ``D`` (default ``True``; the paper feeds ``D``).
         Shape differences of shapes close to the base are close to the identity, so ``D − I`` is the part
         that varies and a zero input means "the base shape"; it is subtracted inside :meth:`forward`, so the
-        network is always called on the operators themselves. Measured on ``val`` by ``benchmarks/scaling.py`` (the
-        docs' results page, "Input scaling"): a lower mean error over 4 seeds, within the seed-to-seed spread.
+        network is always called on the operators themselves.
     standardize : feed ``(D − μ) / σ`` with ``μ``, ``σ`` the per-entry mean and standard deviation of the training
         operators (buffers ``input_mean``, ``input_std`` ``(C, k, k)``, set by :meth:`set_statistics`; replaces
         ``subtract_identity``). The entries of ``D − I`` are ~1e-2, so the first layer otherwise sees tiny inputs.

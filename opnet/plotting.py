@@ -78,15 +78,14 @@ def to_pyvista(mesh):
     return pv.PolyData(np.asarray(v), np.hstack([np.full((len(f), 1), 3), f]).ravel())
 
 
-#: The camera position of a side view, per generated collection whose up axis is not z (the animals' glTF is y up).
-SIDE_VIEWS = {"animals": "zy"}
-
-
 def side_view(collection) -> str:
     """The pyvista camera position (``camera=`` of the plots here) that shows ``collection``'s shapes from the side:
-    ``"zy"`` for the animals (y up), ``"xz"`` for the others (z up).
+    its profile's :attr:`~opnet.data.profiles.Profile.view` (``"zy"`` for the animals, y up; ``"xz"``, z up, for the
+    others).
     """
-    return SIDE_VIEWS.get(collection.meta.get("name"), "xz")
+    from .data.profiles import profile_of
+
+    return profile_of(collection.meta.get("name")).view
 
 
 def plot_meshes(
@@ -621,7 +620,7 @@ def plot_operator_drift(collection, indices, *, x=None, xlabel=None, ax=None):
     Parameters
     ----------
     collection : opnet.data.Collection
-        Its ``operators`` ``(N, C, k, k)``, one line per channel of ``collection.kinds``.
+        Its ``operators`` ``(N, C, k, k)``, one line per channel of ``collection.channels``.
     indices : (T,) int array
         The shapes, in order (e.g. ``collection.sequence("subject00", "arm_raise")``).
     x : (T,) array, optional
@@ -643,8 +642,8 @@ def plot_operator_drift(collection, indices, *, x=None, xlabel=None, ax=None):
     D = np.asarray(collection.operators[indices], dtype=np.float64)[:, :, 1:, 1:]
     drift = np.linalg.norm(D - np.eye(D.shape[-1]), axis=(-2, -1))  # (T, C)
     fig, ax = _figure_and_axes(ax, (6, 3.2))
-    for c, kind in enumerate(collection.kinds):
-        ax.plot(x, drift[:, c], "o-", label=kind)
+    for c, channel in enumerate(collection.channels):
+        ax.plot(x, drift[:, c], "o-", label=channel)
     if np.issubdtype(np.asarray(x).dtype, np.integer):  # frames: no ticks between them
         ax.xaxis.set_major_locator(require("matplotlib.ticker", "opnet.plotting").MaxNLocator(integer=True))
     ax.set_xlabel(xlabel or ("frame" if frames else "shape"))

@@ -21,6 +21,7 @@ from tqdm.auto import tqdm
 
 from ._backend import left_multiply
 from ._checks import check_int, real_array
+from ._deprecation import renamed_keyword
 from ._parallel import thread_map
 from .fmaps import FunctionalMap
 from .inner_products import (
@@ -66,11 +67,11 @@ def pinv_psd(K: np.ndarray, rtol: float | None = None) -> np.ndarray:
     return (U[:, keep] / w[keep]) @ U[:, keep].T
 
 
-def base_pinvs(base_basis: Eigenbasis, kinds) -> list[np.ndarray]:
-    """``K_0⁺`` ``(k, k)`` of each kind on the base: the left factor of every shape difference ``D = K_0⁺ K``."""
+def base_pinvs(base_basis: Eigenbasis, channels) -> list[np.ndarray]:
+    """``K_0⁺`` ``(k, k)`` of each channel on the base: the left factor of every shape difference ``D = K_0⁺ K``."""
     base = base_basis.mesh
     out = []
-    for ip in map(get_inner_product, kinds):
+    for ip in map(get_inner_product, channels):
         try:
             out.append(pinv_psd(checked_gram(ip, "project", base.vertices, base.faces, base_basis.evecs)))
         except NotPositiveError as exc:
@@ -136,10 +137,11 @@ def shape_difference(base_basis: Eigenbasis, target, kind="area", fmap: Function
     return base_pinvs(base_basis, [ip])[0] @ Ki
 
 
+@renamed_keyword("kinds", "channels")
 def shape_differences(
     base_basis: Eigenbasis,
     vertices: np.ndarray,
-    kinds=KINDS,
+    channels=KINDS,
     *,
     batch_size: int = 128,
     progress: bool | None = None,
@@ -152,8 +154,9 @@ def shape_differences(
         Base eigenbasis (``k`` functions, ``n`` vertices).
     vertices : (B, n, 3) array
         Coordinates of ``B`` shapes sharing the base's faces.
-    kinds : sequence of kinds
-        Each ``"area"``, ``"conformal"``, ``"extrinsic"`` or an InnerProduct.
+    channels : sequence of channels
+        Each ``"area"``, ``"conformal"``, ``"extrinsic"`` or an InnerProduct (default the three,
+        :data:`~opnet.inner_products.KINDS`).
     batch_size : int
         Shapes evaluated together, one batch per core (memory grows as ``cores · batch_size · (faces + k²)``).
     progress : bool, optional
@@ -161,11 +164,11 @@ def shape_differences(
 
     Returns
     -------
-    (B, len(kinds), k, k) float64
+    (B, len(channels), k, k) float64
     """
     check_base(base_basis)
     base = base_basis.mesh
-    ips = get_inner_products(kinds)
+    ips = get_inner_products(channels)
     vertices = real_array("vertices", vertices, ("B", base.n_vertices, 3), hint="to share the base's faces")
     check_int("batch_size", batch_size)
     return fast_path(base_basis, vertices, ips, batch_size=batch_size, progress=progress, check="vertices")

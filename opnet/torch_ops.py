@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from ._checks import real_array
+from ._deprecation import renamed_keyword, warn_renamed
 from .inner_products import get_inner_products, has_torch_form
 from .shape_difference import KINDS, base_pinvs
 from .spectral import Eigenbasis
@@ -35,7 +36,7 @@ class ShapeDifferences(torch.nn.Module):
     ----------
     base_basis : opnet.Eigenbasis
         The base shape's eigenbasis (``n`` vertices, ``k`` functions); its faces are the shapes' faces.
-    kinds : sequence of channels (names, instances, ``"module:Class"``)
+    channels : sequence of channels (names, instances, ``"module:Class"``)
         The channels, in this order (default: the paper's three, :data:`opnet.KINDS`); each needs a
         :meth:`~opnet.InnerProduct.project_torch` (the built-ins have one).
     device : where the constants live (kept in float64); :meth:`forward` casts them to the input's dtype and
@@ -43,18 +44,19 @@ class ShapeDifferences(torch.nn.Module):
 
     Notes
     -----
-    Calling the module on ``X`` ``(B, n, 3)`` gives ``(B, len(kinds), k, k)``, equal in float64 to
+    Calling the module on ``X`` ``(B, n, 3)`` gives ``(B, len(channels), k, k)``, equal in float64 to
     :func:`opnet.shape_differences` of the same coordinates (to ~1e-12 relative).
     """
 
-    def __init__(self, base_basis: Eigenbasis, kinds=KINDS, *, device=None):
+    @renamed_keyword("kinds", "channels", where="ShapeDifferences")
+    def __init__(self, base_basis: Eigenbasis, channels=KINDS, *, device=None):
         super().__init__()
         if not isinstance(base_basis, Eigenbasis):
             raise TypeError(
                 f"base_basis must be an opnet.Eigenbasis (opnet.eigenbasis(base_mesh, k)), got "
                 f"{type(base_basis).__name__}."
             )
-        ips = get_inner_products(kinds)  # the same checks and names as the numpy path
+        ips = get_inner_products(channels)  # the same checks and names as the numpy path
         missing = [ip.name for ip in ips if not has_torch_form(ip)]
         if missing:
             raise ValueError(
@@ -63,7 +65,8 @@ class ShapeDifferences(torch.nn.Module):
                 "optimise coordinates against them; their operators alone come from opnet.shape_differences."
             )
         self.inner_products = ips
-        self.kinds, self.n_vertices, self.k = tuple(ip.name for ip in ips), base_basis.mesh.n_vertices, base_basis.k
+        self.channels = tuple(ip.name for ip in ips)
+        self.n_vertices, self.k = base_basis.mesh.n_vertices, base_basis.k
         k0_pinv = np.stack(base_pinvs(base_basis, ips))
         self.register_buffer(
             "faces", torch.tensor(np.asarray(base_basis.mesh.faces), dtype=torch.long, device=device), persistent=False
@@ -73,14 +76,20 @@ class ShapeDifferences(torch.nn.Module):
                 name, torch.tensor(np.asarray(value), dtype=torch.float64, device=device), persistent=False
             )
 
+    @property
+    def kinds(self) -> tuple:
+        """Deprecated name of ``channels`` (warns once)."""
+        warn_renamed("ShapeDifferences.kinds", "ShapeDifferences.channels")
+        return self.channels
+
     def forward(self, X: torch.Tensor) -> torch.Tensor:
-        """``(B, n, 3)`` coordinates → ``(B, len(kinds), k, k)`` shape differences ``K_0⁺ Φᵀ M(X) Φ``."""
+        """``(B, n, 3)`` coordinates → ``(B, len(channels), k, k)`` shape differences ``K_0⁺ Φᵀ M(X) Φ``."""
         K = self.project(X)
         return self.k0_pinv.to(K) @ K
 
     def project(self, X: torch.Tensor) -> torch.Tensor:
-        """``Φᵀ M_c(X) Φ`` ``(B, len(kinds), k, k)`` of each kind ``c``, before ``K_0⁺`` (the ``K_i`` of eq. 2): each
-        channel's :meth:`~opnet.InnerProduct.project_torch`.
+        """``Φᵀ M_c(X) Φ`` ``(B, len(channels), k, k)`` of each channel ``c``, before ``K_0⁺`` (the ``K_i`` of
+        eq. 2): each channel's :meth:`~opnet.InnerProduct.project_torch`.
         """
         X = self._check(X)
         phi, faces = self.phi.to(X), self.faces.to(X.device)
@@ -115,10 +124,11 @@ class ShapeDifferences(torch.nn.Module):
         return X
 
     def extra_repr(self) -> str:
-        return f"kinds={self.kinds}, n_vertices={self.n_vertices}, k={self.k}"
+        return f"channels={self.channels}, n_vertices={self.n_vertices}, k={self.k}"
 
 
-def shape_differences(base_basis: Eigenbasis, X: torch.Tensor, kinds=KINDS) -> torch.Tensor:
-    """Shorthand for ``ShapeDifferences(base_basis, kinds)(X)`` (builds the constants on each call)."""
+@renamed_keyword("kinds", "channels")
+def shape_differences(base_basis: Eigenbasis, X: torch.Tensor, channels=KINDS) -> torch.Tensor:
+    """Shorthand for ``ShapeDifferences(base_basis, channels)(X)`` (builds the constants on each call)."""
     X = torch.as_tensor(X)
-    return ShapeDifferences(base_basis, kinds, device=X.device)(X)
+    return ShapeDifferences(base_basis, channels, device=X.device)(X)

@@ -230,3 +230,16 @@ def _markdown_tables(notebook: Path) -> list[str]:
 def markdown_tables():
     """``markdown_tables(notebook)``: the Markdown tables (text) that a notebook's saved outputs display."""
     return _markdown_tables
+
+
+@pytest.fixture
+def profile_loads(monkeypatch):
+    """``profile_loads(name, coll)``: for this test, the collection profile ``name`` (:mod:`opnet.data.profiles`)
+    loads ``coll`` whatever the preset, root or draws asked for."""
+    import dataclasses
+
+    def use(name: str, coll):
+        p = opnet.data.profile(name)
+        monkeypatch.setitem(opnet.data.PROFILES, name, dataclasses.replace(p, load=lambda *a, **k: coll))
+
+    return use

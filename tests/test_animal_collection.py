@@ -141,6 +141,8 @@ def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, r
         reproduce("quick", tmp_path, collection="animals", bodies=True)
     with pytest.raises(ValueError, match="humans"):
         reproduce("quick", tmp_path, collection="cats")
+    with pytest.raises(ValueError, match="humans"):  # a profile the reproduction does not offer
+        reproduce("quick", tmp_path, collection="heads")
     tiny = Budget(epochs=1, ablation_epochs=1, pointnet_epochs=1, analogies=3, paths=2, apps_refine_shapes=2)
     rows = reproduce(
         "quick",

@@ -69,10 +69,10 @@ def test_the_fast_path_checks_the_shapes_in_its_own_pass_as_check_shapes_does(ba
     assert "2 shapes have zero-area (collapsed) faces" in str(expected.value) and "first: shape 4" in str(
         expected.value
     )
-    for kinds in (opnet.KINDS, ["extrinsic"], [_Mine()]):
+    for channels in (opnet.KINDS, ["extrinsic"], [_Mine()]):
         with pytest.raises(ValueError) as got:
-            opnet.shape_differences(base_basis, bad, kinds, batch_size=2, progress=False)
-        assert str(got.value) == str(expected.value), kinds
+            opnet.shape_differences(base_basis, bad, channels, batch_size=2, progress=False)
+        assert str(got.value) == str(expected.value), channels
     thin = good.copy()
     thin[5] = _sliver(base, 1e-5)
     with pytest.warns(opnet.MeshWarning, match=r"1 shapes have near-degenerate faces.*first: shape 5"):
@@ -385,7 +385,7 @@ def test_empty_batches_are_refused():
         opnet.kabsch(np.zeros((0, 3)), np.zeros((0, 3)))  # the mean of no points is NaN
     with pytest.raises(ValueError, match="non-empty"):
         opnet.interpolate(np.eye(3), np.eye(3), [])
-    with pytest.raises(ValueError, match="kinds is empty"):
+    with pytest.raises(ValueError, match="channels is empty"):
         opnet.shape_differences(opnet.eigenbasis(opnet.data.toy.capsule("quick"), 5), np.zeros((0, 434, 3)), [])
     with pytest.raises(ValueError, match="empty batch"):
         opnet.torch_ops.ShapeDifferences(opnet.eigenbasis(opnet.data.toy.capsule("quick"), 5))(torch.zeros(0, 434, 3))

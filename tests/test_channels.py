@@ -169,15 +169,37 @@ def test_names_are_checked_resolved_registered_and_imported(Radial):
         _REGISTRY.pop("radial area", None)
 
 
+def test_the_channel_vocabulary_lives_in_the_channel_layer():
+    """Parsing, names and labels are opnet.inner_products'; the data package and evaluate re-export them, and the
+    device rule is opnet.devices' (opnet.train's as before)."""
+    from opnet import devices, evaluate, inner_products
+
+    assert data_channels.split_channels is inner_products.split_channels
+    assert evaluate.channel_names is inner_products.channel_names
+    assert evaluate.channel_label is inner_products.channel_label
+    assert train.resolve_device is train.config.resolve_device is devices.resolve_device
+    assert inner_products.split_channels("A+E") == ["area", "extrinsic"]
+    assert inner_products.split_channels(" area, radial_channels:RadialArea") == ["area", "radial_channels:RadialArea"]
+    one = opnet.AreaInnerProduct()
+    assert inner_products.split_channels(one)[0] is one and inner_products.split_channels(opnet.AreaInnerProduct) == [
+        opnet.AreaInnerProduct
+    ]
+    assert inner_products.channel_names("area,extrinsic") == ("area", "extrinsic")
+    labels = {"A+E+C": "Int+Ext", "conformal,area": "Int", "extrinsic": "Ext", "area,extrinsic": "A+E", "Conf": "Conf"}
+    for channels, label in labels.items():
+        assert inner_products.channel_label(channels) == label
+    assert inner_products.channel_label(["area", "my ip"]) == "Area+my ip"
+
+
 # ------------------------------------------------------------------------------------------------------------------
 # collections
 
 
-def test_with_kinds_computes_orders_and_caches_a_new_channel(stored, Radial, tmp_path):
+def test_with_channels_computes_orders_and_caches_a_new_channel(stored, Radial, tmp_path):
     data_file = next(tmp_path.glob("tiny.*.npz"))
     before = (data_file.stat().st_mtime_ns, (tmp_path / "tiny.json").read_text())
-    mine = stored.with_kinds(["area", "extrinsic", Radial()])
-    assert mine.kinds == ("area", "extrinsic", "radial area") and mine.operators.shape[1] == 3
+    mine = stored.with_channels(["area", "extrinsic", Radial()])
+    assert mine.channels == ("area", "extrinsic", "radial area") and mine.operators.shape[1] == 3
     np.testing.assert_array_equal(mine.operators[:, :2], stored.operators[:, [0, 2]])
     expected = opnet.shape_differences(stored.base_basis, stored.vertices[:3].astype(np.float64), [Radial()])
     np.testing.assert_allclose(mine.operators[:3, 2], expected[:, 0], rtol=1e-5, atol=1e-6)
@@ -192,10 +214,10 @@ def test_with_kinds_computes_orders_and_caches_a_new_channel(stored, Radial, tmp
     again = opnet.data.read_collection(tmp_path / "tiny")
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(data_channels, "compute_operators", lambda *a, **k: pytest.fail("computed again"))
-        back = again.with_kinds(["area", Radial()])
+        back = again.with_channels(["area", Radial()])
     np.testing.assert_array_equal(back.operators[:, 1], mine.operators[:, 2])
     # a subset keeps its channels
-    assert mine.subset([0, 3]).kinds == mine.kinds
+    assert mine.subset([0, 3]).channels == mine.channels
 
 
 def test_a_channel_without_project_batch_runs_in_processes(coll, Radial):
@@ -205,24 +227,24 @@ def test_a_channel_without_project_batch_runs_in_processes(coll, Radial):
         def project(self, vertices, faces, evecs):
             return Radial().project(vertices, faces, evecs)
 
-    serial = coll.with_kinds([Slow()], n_jobs=1)
-    parallel = coll.with_kinds([Slow()], n_jobs=2)
+    serial = coll.with_channels([Slow()], n_jobs=1)
+    parallel = coll.with_channels([Slow()], n_jobs=2)
     np.testing.assert_array_equal(serial.operators, parallel.operators)
-    np.testing.assert_allclose(serial.operators[:, 0], coll.with_kinds([Radial()]).operators[:, 0], rtol=1e-6)
+    np.testing.assert_allclose(serial.operators[:, 0], coll.with_channels([Radial()]).operators[:, 0], rtol=1e-6)
 
 
 def test_channel_errors_name_the_fix(stored, Radial, radial_module, tmp_path):
-    mine = stored.with_kinds([*stored.kinds, Radial()])
+    mine = stored.with_channels([*stored.channels, Radial()])
     with pytest.raises(
-        ChannelError, match=r"holds the channels \['area', 'conformal', 'extrinsic'\], not 'radial area'.*with_kinds"
+        ChannelError, match=r"holds the channels \['area', 'conformal', 'extrinsic'\], not 'radial area'.*with_channels"
     ):
         stored.operators_for(["area", Radial()])
-    with pytest.raises(ChannelError, match="unknown channel 'volume'.*with_kinds"):
-        stored.with_kinds(["volume"])
-    with pytest.raises(ValueError, match="with_kinds"):
+    with pytest.raises(ChannelError, match="unknown channel 'volume'.*with_channels"):
+        stored.with_channels(["volume"])
+    with pytest.raises(ValueError, match="with_channels"):
         train.fit(stored, channels=["area", Radial()], epochs=1, **FAST)
     with pytest.raises(ChannelError, match="twice"):
-        stored.with_kinds(["area", "area"])
+        stored.with_channels(["area", "area"])
     # another implementation under the same name: refused where the collection holds the old one
     edited = type("RadialArea", (Radial,), {"project_batch": lambda self, v, f, e: 3 * Radial.project(self, v, f, e)})
     with pytest.raises(
@@ -230,13 +252,13 @@ def test_channel_errors_name_the_fix(stored, Radial, radial_module, tmp_path):
     ):
         mine.operators_for([edited()])
     with pytest.raises(ChannelError, match="another implementation"):
-        mine.with_kinds(["area", edited()])
-    redone = mine.with_kinds(["area", edited()], recompute=True)
+        mine.with_channels(["area", edited()])
+    redone = mine.with_channels(["area", edited()], recompute=True)
     np.testing.assert_allclose(redone.operators[:, 1], 3 * mine.operators_for(["radial area"])[:, 0], rtol=1e-5)
     assert len(list(tmp_path.glob("tiny.channel.radial_area.*.npz"))) == 2  # one file per implementation
     # read back from disk, the channel's operators select by name, but new shapes need its class
     saved = opnet.data.read_collection(save_collection(mine, tmp_path / "mine"))
-    assert saved.kinds == mine.kinds and saved.digests == mine.digests
+    assert saved.channels == mine.channels and saved.digests == mine.digests
     np.testing.assert_array_equal(saved.operators_for(["radial area"]), mine.operators_for(["radial area"]))
     with pytest.raises(ChannelError, match="holds the operators of channel 'radial area' but not its inner product"):
         saved.inner_products()
@@ -252,26 +274,26 @@ def test_a_channel_that_sees_rigid_motions_warns(coll):
             return evecs.T @ (a[:, None] * evecs)
 
     with pytest.warns(UserWarning, match="'height' is not invariant to rigid motions"):
-        assert coll.with_kinds([Height()], n_jobs=1).kinds == ("height",)
+        assert coll.with_channels([Height()], n_jobs=1).channels == ("height",)
 
 
-def test_folder_and_mapped_collections_take_kinds(tmp_path, Radial, humans, root, tiny_collection):
+def test_folder_and_mapped_collections_take_channels(tmp_path, Radial, humans, root, tiny_collection):
     import trimesh
 
     c = tiny_collection(n=16)
     for i, v in enumerate(c.vertices):
         trimesh.Trimesh(v, c.faces, process=False).export(tmp_path / f"s{i:02d}.ply")
-    folder = opnet.data.load_folder(tmp_path, k=12, kinds=["extrinsic", Radial()], progress=False)
-    assert folder.kinds == ("extrinsic", "radial area") and folder.operators.shape[1:] == (2, 12, 12)
+    folder = opnet.data.load_folder(tmp_path, k=12, channels=["extrinsic", Radial()], progress=False)
+    assert folder.channels == ("extrinsic", "radial area") and folder.operators.shape[1:] == (2, 12, 12)
     few = humans.indices("test")[:2]
     true = opnet.data.mapped_collection(humans, "2k", "true", indices=few, root=root, n_jobs=1, progress=False)
     mine = opnet.data.mapped_collection(
-        humans, "2k", "true", indices=few, root=root, n_jobs=1, kinds=["area", Radial()], progress=False
+        humans, "2k", "true", indices=few, root=root, n_jobs=1, channels=["area", Radial()], progress=False
     )
-    assert true.kinds == opnet.KINDS and mine.kinds == ("area", "radial area")
+    assert true.channels == opnet.KINDS and mine.channels == ("area", "radial area")
     np.testing.assert_array_equal(mine.operators[:, 0], true.operators[:, 0])
     with pytest.raises(ChannelError, match="through the same maps: opnet.data.mapped_collection"):
-        true.with_kinds([Radial()])
+        true.with_channels([Radial()])
 
 
 # ------------------------------------------------------------------------------------------------------------------
@@ -279,7 +301,7 @@ def test_folder_and_mapped_collections_take_kinds(tmp_path, Radial, humans, root
 
 
 def test_fit_evaluate_and_load_with_a_channel_of_ones_own(stored, Radial, tmp_path):
-    mine = stored.with_kinds(["area", "extrinsic", Radial()])
+    mine = stored.with_channels(["area", "extrinsic", Radial()])
     net, history = train.fit(mine, channels=["area", Radial()], epochs=2, run_dir=tmp_path / "run", **FAST)
     assert net.channels == ("area", "radial area") and len(history) == 2
     config = json.loads((tmp_path / "run" / "config.json").read_text())
@@ -295,15 +317,15 @@ def test_fit_evaluate_and_load_with_a_channel_of_ones_own(stored, Radial, tmp_pa
     nn = opnet.evaluate.nearest_neighbour_method(mine, net.channels)
     assert nn.channels == ("area", "radial area")
     # the fingerprint covers the run's channels only: the run loads on any collection holding them
-    loaded = train.load_model(tmp_path / "run", stored.with_kinds(["area", Radial()]), channels=["area", Radial()])
+    loaded = train.load_model(tmp_path / "run", stored.with_channels(["area", Radial()]), channels=["area", Radial()])
     np.testing.assert_array_equal(
-        opnet.decode(loaded, mine.operators[:2], mine.kinds), opnet.decode(net, mine.operators[:2], mine.kinds)
+        opnet.decode(loaded, mine.operators[:2], mine.channels), opnet.decode(net, mine.operators[:2], mine.channels)
     )
     # an edited class: loading, evaluating and resuming name the channel
     edited = type("RadialArea", (Radial,), {"project_batch": lambda self, v, f, e: 2 * Radial.project(self, v, f, e)})
     with pytest.raises(train.CheckpointError, match="channel 'radial area' as computed by another implementation"):
         train.load_model(tmp_path / "run", channels=["area", edited()])
-    other = stored.with_kinds(["area", edited()])
+    other = stored.with_channels(["area", edited()])
     with pytest.raises(
         train.CheckpointError, match=r"channels \['radial area'\] were computed by another implementation"
     ):
@@ -336,7 +358,7 @@ def test_a_run_from_before_channels_were_data_loads_and_resumes(stored, tmp_path
 
 
 def test_the_ablation_is_a_list_of_runs(stored, Radial, tmp_path):
-    mine = stored.with_kinds(["area", "extrinsic", Radial()])
+    mine = stored.with_channels(["area", "extrinsic", Radial()])
     table = opnet.ablation(
         mine, channel_sets=[["area"], ["area", Radial()]], depths=[1, 2], epochs=1, run_root=tmp_path, **FAST
     )
@@ -362,7 +384,7 @@ def test_the_ablation_is_a_list_of_runs(stored, Radial, tmp_path):
 
 
 def test_reconstruct_and_the_algebra_use_the_channel(stored, Radial):
-    mine = stored.with_kinds(["area", Radial()])
+    mine = stored.with_channels(["area", Radial()])
     ops = mine.operators_for(["area", Radial()])[:2]
     X = opnet.reconstruct(ops, mine.base_basis, channels=["area", Radial()], init="base", steps=5, progress=False)
     assert X.shape == (2, mine.vertices.shape[1], 3) and np.isfinite(X).all()
@@ -384,6 +406,59 @@ def test_reconstruct_and_the_algebra_use_the_channel(stored, Radial):
     assert algebra.interpolate(0, 1, [0.0, 0.5, 1.0]).shape == (3, mine.vertices.shape[1], 3)
     refined = opnet.apps.operatornet_algebra(net, mine, refine=dict(channels=[Radial()], steps=2))
     assert refined.analogy(0, 1, 2).shape == (mine.vertices.shape[1], 3)
+
+
+def test_decode_of_encode_names_no_channels_for_a_network_of_other_channels(toy_collection, Radial):
+    """A network trained on channels that are not the paper's three: ``encode`` against its collection gives that
+    collection's channels, and ``decode`` reads the network's own by default, so neither call names them."""
+    for channels in (("area",), ("extrinsic", Radial())):
+        coll = toy_collection().with_channels(channels)
+        torch.manual_seed(0)
+        net, _ = train.fit(coll, epochs=2, **FAST)
+        assert net.channels == coll.channels == opnet.inner_products.channel_names(channels)
+        i = int(coll.indices("test")[0])
+        D = opnet.encode(coll.mesh(i), coll)
+        assert D.shape == (len(channels), coll.base_basis.k, coll.base_basis.k)
+        np.testing.assert_allclose(D, coll.operators[i], rtol=1e-4, atol=1e-5 * np.abs(D).max())
+        X = opnet.decode(net, D)
+        assert X.shape == (coll.vertices.shape[1], 3)
+        np.testing.assert_allclose(X, opnet.decode(net, D, channels=net.channels), rtol=1e-6)
+        assert opnet.encode(coll.mesh(i), coll.base_basis).shape[0] == 3  # a bare basis: the paper's three
+    with pytest.raises(ValueError, match="the network's channels, the default.*channels=opnet.KINDS"):
+        opnet.decode(net, opnet.encode(coll.mesh(i), coll.base_basis))
+    more = ["area", "extrinsic", Radial()]  # named: the network's channels are picked from them
+    D = opnet.encode(coll.mesh(i), coll.base_basis, channels=more)
+    np.testing.assert_allclose(opnet.decode(net, D, more), X, rtol=1e-5, atol=1e-6)
+
+
+def test_the_torch_side_old_names_work_and_warn_once(coll, monkeypatch):
+    import warnings
+
+    from opnet import _deprecation
+
+    net = opnet.OperatorNet(coll.vertices.shape[1], k=coll.base_basis.k, channels=("extrinsic",))
+    ops = coll.operators[:2]
+    module = opnet.torch_ops.ShapeDifferences(coll.base_basis, ("area",))
+    calls = {
+        "decode": (lambda: opnet.decode(net, ops, kinds=opnet.KINDS), lambda: opnet.decode(net, ops, opnet.KINDS)),
+        "ShapeDifferences": (
+            lambda: opnet.torch_ops.ShapeDifferences(coll.base_basis, kinds=("area",)).channels,
+            lambda: opnet.torch_ops.ShapeDifferences(coll.base_basis, channels=("area",)).channels,
+        ),
+        "ShapeDifferences.kinds": (lambda: module.kinds, lambda: module.channels),
+    }
+    for name, (old, new) in calls.items():
+        monkeypatch.setattr(_deprecation, "WARNED", set())
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            got = [old(), old()]
+            expected = new()
+        warned = [w for w in caught if issubclass(w.category, DeprecationWarning)]
+        assert len(warned) == 1 and "deprecated" in str(warned[0].message), (name, [str(w.message) for w in warned])
+        for g in got:
+            np.testing.assert_array_equal(np.asarray(g), np.asarray(expected))
+    with pytest.raises(TypeError, match="both channels="):
+        opnet.decode(net, ops, channels=opnet.KINDS, kinds=opnet.KINDS)
 
 
 # ------------------------------------------------------------------------------------------------------------------
@@ -449,7 +524,7 @@ def test_a_table1_of_before_renders_one_line_per_method():
     lines = [line for line in text.splitlines() if line.startswith("| ") and "test: d_R" not in line]
     assert [line.split(" | ")[0][2:] for line in lines] == [*names, "a method of one's own"]
     assert lines[0].split(" | ")[4] == "1.11"  # the paper's d_R beside the paper's network
-    assert "NN's d_R / OperatorNet (Int+Ext)'s = 3 (" in text and "d_R / ours = 0.50" in text
+    assert "NN's d_R / OperatorNet (Int+Ext)'s = 3 (" in text and "d_R / ours = 0.5 (" in text
 
 
 def test_digests_are_the_same_in_every_process_and_see_a_subclass_code(tmp_path):

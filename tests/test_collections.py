@@ -7,6 +7,7 @@ import multiprocessing as mp
 import os
 import signal
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -304,13 +305,13 @@ def test_the_manifest_records_the_channels(coll, tmp_path):
     assert manifest["channels"] == list(opnet.KINDS)
     assert manifest["channel_digests"] == {c: opnet.channel_digest(c) for c in opnet.KINDS}
     swapped = opnet.data.read_collection(path)
-    assert swapped.kinds == opnet.KINDS
+    assert swapped.channels == opnet.KINDS
     path.write_text(json.dumps(dict(manifest, channels=["extrinsic", "area"])))
     with pytest.raises(CollectionError, match=r"names the channels \['extrinsic', 'area'\].*rebuild=True"):
         opnet.data.read_collection(path)
     old = {k: v for k, v in manifest.items() if k not in ("channels", "channel_digests")}
     path.write_text(json.dumps(old))
-    assert opnet.data.read_collection(path).kinds == opnet.KINDS
+    assert opnet.data.read_collection(path).channels == opnet.KINDS
 
 
 def test_a_format_2_collection_is_read_with_its_subjects_derived(coll, tmp_path):
@@ -386,3 +387,108 @@ def test_with_training_from_adds_training_shapes_only(coll):
         coll.with_training_from(smaller)
     with pytest.raises(TypeError, match="must be opnet.data.Collection"):
         coll.with_training_from(coll.operators)
+
+
+# -- one name for the operators' channels: ``channels``; the old ``kinds`` still works and warns once ----------------
+
+
+def _deprecations(call, monkeypatch):
+    """``call()`` twice in what is, for opnet, a fresh process (its memory of the old names that warned cleared):
+    both results and the DeprecationWarnings.
+    """
+    from opnet import _deprecation
+
+    monkeypatch.setattr(_deprecation, "WARNED", set())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")  # Python's own once-per-line filter is not what is tested
+        first, second = call(), call()
+    return first, second, [w for w in caught if issubclass(w.category, DeprecationWarning)]
+
+
+@pytest.mark.parametrize(
+    "old, new",
+    [
+        (lambda c: c.kinds, lambda c: c.channels),
+        (
+            lambda c: c.with_kinds(["extrinsic", "area"]).channels,
+            lambda c: c.with_channels(["extrinsic", "area"]).channels,
+        ),
+        (lambda c: c.with_kinds(kinds=["area"]).channels, lambda c: c.with_channels(channels=["area"]).channels),
+        (
+            lambda c: opnet.shape_differences(c.base_basis, c.vertices[:2], kinds=["area"]),
+            lambda c: opnet.shape_differences(c.base_basis, c.vertices[:2], channels=["area"]),
+        ),
+        (
+            lambda c: opnet.encode(c.mesh(0), c.base_basis, kinds=["area"]),
+            lambda c: opnet.encode(c.mesh(0), c.base_basis, channels=["area"]),
+        ),
+        (
+            lambda c: opnet.inner_products.get_inner_products(kinds=["area"])[0].name,
+            lambda c: opnet.inner_products.get_inner_products(channels=["area"])[0].name,
+        ),
+        (
+            lambda c: _rebuilt(c, kinds=c.channels).channels,
+            lambda c: _rebuilt(c, channels=c.channels).channels,
+        ),
+    ],
+    ids=[
+        "Collection.kinds",
+        "with_kinds",
+        "with_kinds(kinds=)",
+        "shape_differences",
+        "encode",
+        "get_inner_products",
+        "Collection(kinds=)",
+    ],
+)
+def test_the_old_name_kinds_works_and_warns_once(coll, monkeypatch, old, new):
+    first, second, warned = _deprecations(lambda: old(coll), monkeypatch)
+    assert len(warned) == 1, [str(w.message) for w in warned]
+    assert "deprecated" in str(warned[0].message) and "channels" in str(warned[0].message)
+    assert warned[0].filename == __file__  # attributed to the caller's line, not to opnet
+    expected, again, quiet = _deprecations(lambda: new(coll), monkeypatch)
+    assert quiet == []  # the new names never warn
+    for got in (first, second, again):
+        np.testing.assert_array_equal(np.asarray(got), np.asarray(expected))
+
+
+def _rebuilt(coll, **channels):
+    return opnet.data.Collection(
+        coll.vertices,
+        coll.faces,
+        coll.operators,
+        coll.split,
+        coll.subcollection,
+        coll.subject,
+        coll.base_basis,
+        coll.eval_subset,
+        **channels,
+    )
+
+
+def test_the_old_and_the_new_keyword_together_are_refused(coll):
+    with pytest.raises(TypeError, match=r"both channels= and its deprecated name kinds="):
+        opnet.shape_differences(coll.base_basis, coll.vertices[:1], channels=["area"], kinds=["area"])
+    with pytest.raises(TypeError, match=r"Collection\(\) got both channels= and its deprecated name kinds="):
+        _rebuilt(coll, channels=coll.channels, kinds=coll.channels)
+    with pytest.raises(TypeError, match="both channels="):
+        opnet.encode(coll.mesh(0), coll.base_basis, channels=["area"], kinds=["area"])
+
+
+def test_a_collection_names_its_channels(coll):
+    assert coll.channels == opnet.KINDS and "channels=('area', 'conformal', 'extrinsic')" in repr(coll)
+    assert "kinds" not in repr(coll)
+    positional = opnet.data.Collection(
+        coll.vertices,
+        coll.faces,
+        coll.operators[:, :1],
+        coll.split,
+        coll.subcollection,
+        coll.subject,
+        coll.base_basis,
+        coll.eval_subset,
+        {},
+        {},
+        ("area",),
+    )
+    assert positional.channels == ("area",)

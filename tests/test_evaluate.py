@@ -12,6 +12,7 @@ import opnet
 from opnet import evaluate, reproduce, train
 from opnet.data import toy
 from opnet.experiments.report import MAPPED_GROUPS, headline_markdown, row_identity
+from opnet.experiments.steps import DISCRETISATIONS
 
 
 @pytest.fixture(scope="module")
@@ -110,50 +111,43 @@ def test_the_notebooks_share_a_folder_per_budget(tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
-def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, tiny_collection):
+def test_reproduce_writes_complete_results_and_resumes(tmp_path, profile_loads, tiny_collection):
     tiny = tiny_collection("humans")
-    monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: tiny)
+    profile_loads("humans", tiny)
     budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, refine_steps=5, refine_shapes=3)
-    rows = reproduce.reproduce(
-        "quick", tmp_path, budget=budget, device="cpu", progress=False, applications=False, maps=False
-    )
+    options = dict(budget=budget, device="cpu", progress=False, applications=False, maps=False)
+    rows = reproduce.reproduce("quick", tmp_path, **options)
+    plan = reproduce.plan_for(reproduce.ReproduceConfig(**options))
     saved, context = reproduce.read_results(tmp_path)
     assert saved == json.loads(json.dumps(rows)) and context["preset"] == "quick" and context["wall_seconds"] > 0
     assert context["opnet_version"] == opnet.__version__ and len(context["date"]) == len("2026-12-02")
+    assert context["plan"] == plan.keys() and {r["entry"] for r in saved} == set(plan.keys())  # each row's entry
+    name = {e.key: e.name for e in plan.entries}
+    bodies = [e for e in plan.entries if e.part == "bodies"]
     headline = [line.split(" | ")[0].lstrip("| ") for line in headline_markdown(saved)[2:]]  # the README's rows
-    networks = [*reproduce.TABLE1, *reproduce.OURS, *reproduce.MORE_BODIES]
-    assert headline == [*reproduce.TABLE1, *reproduce.OURS, "Nearest neighbour (Int+Ext)", "Base shape"] + [
-        *reproduce.MORE_BODIES  # the rows beside Table 1 come after it
+    networks = [e.name for e in plan.entries if e.runs and e.table == "table1"]
+    assert headline == [name[k] for k in ("int+ext", "int", "ext", "ours", "nn", "base-shape")] + [
+        e.name
+        for e in bodies  # the rows beside Table 1 come after it
     ]
     assert reproduce.results_markdown(saved, context) == (tmp_path / "results.md").read_text()  # all it needs
     t1 = [r for r in saved if r["table"] == "table1"]
     assert {(r["method"], r["split"]) for r in t1} == {
-        (m, s) for m in [*networks, "Nearest neighbour (Int+Ext)", "Base shape"] for s in evaluate.TEST_SETS
-    } | {
-        (m, s)
-        for m in [
-            "Geometric (A+E)",
-            "FuncChar (Int+Ext)",
-            "OperatorNet (Int+Ext) + refinement",
-            "OperatorNet ours (Int+Ext) + refinement",
-            *(f"{name} + refinement" for name in reproduce.MORE_BODIES),
-        ]
-        for s in reproduce.REFINE_SETS
-    }
-    more = [r for r in t1 if r["method"] in reproduce.MORE_BODIES]  # our variant on more bodies: its rows say which
-    assert {r["method"] for r in more} == set(reproduce.MORE_BODIES)
-    for r in more:
-        entry = reproduce.MORE_BODIES[r["method"]]
-        assert {k: r[k] for k in ("bodies", "poses", "seeds") if k in r} == entry
-        assert r["group"] == reproduce.bodies_group(**{k: v for k, v in entry.items() if k != "seeds"})
-        members = [s.run_name for s in reproduce.bodies_specs(budget) if s.group == r["group"]]
-        assert r["run"] == "+".join(members)  # an ensemble's rows are its own, not its first seed's
-    seeds = sum(entry.get("seeds", 1) for entry in reproduce.MORE_BODIES.values())
-    assert len(reproduce.bodies_specs(budget)) == seeds > len(reproduce.MORE_BODIES)  # an ensemble's seeds: trained
+        (m, s) for m in [*networks, name["nn"], name["base-shape"]] for s in evaluate.TEST_SETS
+    } | {(e.name, s) for e in plan.entries if e.part == "refine" for s in reproduce.REFINE_SETS}
+    for e in bodies:  # our variant on more bodies: its rows say which
+        mine = [r for r in t1 if r["entry"] == e.key]
+        assert mine and all({k: r[k] for k in ("bodies", "poses", "seeds") if k in r} == e.fields for r in mine)
+        assert all(r["group"] == e.spec.group and r["run"] == "+".join(s.run_name for s in e.runs) for r in mine)
+    seeds = sum(len(e.runs) for e in bodies)
+    assert seeds > len(bodies)  # an ensemble's seeds: each trained
     refined = [r for r in t1 if r.get("refined") or r.get("baseline") in ("geometric", "funcchar")]
-    assert len(refined) == 8 + 2 * len(reproduce.MORE_BODIES) and {
+    assert len(refined) == 8 + 2 * len(bodies) and {
         tuple(r["channels"]) for r in refined if r.get("baseline") == "funcchar"
     } == {reproduce.FUNCCHAR}
+    for r in refined:  # a refinement's rows carry its network's run fields
+        start = plan[r["entry"]].refines
+        assert start is None or r["run"] == plan[start].run_fields()["run"]
     assert all(r["n_shapes"] == 3 for r in refined)  # at most refine_shapes per test set
     assert all(np.isfinite(r["d_R_before"]) for r in refined if r["method"].endswith("refinement"))
     abl = [r for r in saved if r["table"] == "ablation"]
@@ -223,8 +217,8 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, monkeypatch, ti
     assert "Geometric (A+E): evaluated on 3 of the" in md  # the subset is still told apart from the whole test set
 
 
-def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatch):
-    monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: humans)
+def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_loads):
+    profile_loads("humans", humans)
     budget = reproduce.Budget(
         epochs=1,
         ablation_epochs=1,
@@ -240,14 +234,14 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatc
     rows = reproduce.reproduce(
         "quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False, maps=False
     )
-    assert {r["method"] for r in rows if r["table"] == "table1"} >= {reproduce.POINTNET}
+    assert {r["method"] for r in rows if r["table"] == "table1"} >= {"PointNet AE"}
     assert (tmp_path / "runs" / "table1-pointnet" / "best.pt").is_file()
     names = [
         "OperatorNet (mult.)",
         "OperatorNet (linear)",
         "OperatorNet ours (mult.)",
         "OperatorNet (mult.) + refinement",
-        reproduce.POINTNET,
+        "PointNet AE",
         "Nearest neighbour",
     ]
     ana = [r for r in rows if r["table"] == "analogy"]
@@ -283,33 +277,25 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, monkeypatc
     assert "analogy" in reproduce.read_results(tmp_path)[1]["earlier"][0]["tables"]  # and said to come from before
 
 
-def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypatch, tiny_collection):
+def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_loads, tiny_collection):
     """Table 1's Comp networks train on operators through computed maps; test shapes on 2k and 5k meshes are decoded
     by them and by Table 1's, beside the exact 1k operators of the same shapes."""
     few = humans.subset(np.concatenate([humans.indices(s)[::8] for s in opnet.data.SPLITS]))
-    monkeypatch.setattr(opnet.data, "load_collection", lambda *a, **k: few)
+    profile_loads("humans", few)
     budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, discretisation_shapes=3)
     data = tmp_path / "data"
-    rows = reproduce.reproduce(
-        "quick",
-        tmp_path,
-        budget=budget,
-        device="cpu",
-        progress=False,
-        ablation=False,
-        applications=False,
-        refine=False,
-        data_root=data,
-    )
+    options = dict(budget=budget, device="cpu", progress=False, ablation=False, applications=False, refine=False)
+    rows = reproduce.reproduce("quick", tmp_path, data_root=str(data), **options)
+    plan = reproduce.plan_for(reproduce.ReproduceConfig(**options))
     comp = [r for r in rows if r["table"] == "table1" and r.get("group") in MAPPED_GROUPS]
     assert {(r["method"], r["split"]) for r in comp} == {
-        (m, s) for m in [*reproduce.COMP, *reproduce.COMP_HALF, *reproduce.COMP_THREE] for s in evaluate.TEST_SETS
+        (e.name, s) for e in plan.entries if e.part == "maps" for s in evaluate.TEST_SETS
     }
     comp = opnet.data.mapped_collection(few, "2k", root=data)  # cached by reproduce
     for short in ("A+E+C", "Ext"):  # the Comp networks were trained on it
         config = json.loads((tmp_path / "runs" / f"comp-{short}-d1" / "config.json").read_text())
         assert config["data"]["fingerprint"] == train.collection_fingerprint(comp, opnet.CHANNEL_SETS[short])
-    (spec,) = reproduce.comp_specs(budget, beside="half")  # beside them: half the shapes through the maps, half exact
+    spec = plan["comp-half-ext"].spec  # beside them: half the shapes through the maps, half exact
     config = json.loads((tmp_path / "runs" / spec.run_name / "config.json").read_text())
     half = opnet.data.half_mapped(few, comp)
     assert config["data"]["fingerprint"] == train.collection_fingerprint(half, ("extrinsic",))
@@ -321,10 +307,12 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
         assert np.array_equal(half.operators[half.indices(split)], comp.operators[few.indices(split)])
     assert len(list(data.glob("*computed2k*.json"))) == 1  # the 2k computed rows reuse it: no subset of their own
     disc = [r for r in rows if r["table"] == "discretisation"]
-    encodings = [("1k", "exact"), *reproduce.DISCRETISATIONS]
+    encodings = [("1k", "exact"), *DISCRETISATIONS]
+    decoders = [e for e in plan.entries if e.other_meshes]
     assert [(r["resolution"], r["maps"], r["method"]) for r in disc] == [
-        (*e, m) for e in encodings for m in reproduce.DISCRETISATION_NETWORKS
-    ] + [(*e, m) for e in encodings for m in [*reproduce.COMP_HALF, *reproduce.COMP_THREE]]  # beside them, after them
+        (*enc, e.name) for enc in encodings for e in decoders
+    ]
+    assert all(r["run"] == plan[r["entry"]].spec.run_name for r in disc)  # each network's rows carry its run
     assert all(r["n_shapes"] == 3 and np.isfinite(r["d_R"]) for r in disc)
     errors = {(r["resolution"], r["maps"]): r["map_error"] for r in disc}
     assert 0 < errors["2k", "computed"] < 0.05 and 0 < errors["5k", "computed"] < 0.05  # metres
@@ -332,14 +320,14 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, monkeypa
     assert "Other triangulations" in md and "| OperatorNet (Comp)(Int+Ext) |" in md
     t1 = {r["method"]: r["d_R"] for r in rows if r["table"] == "table1" and r["split"] == "test"}
     ratio = t1["OperatorNet (Comp)(Ext)"] / t1["OperatorNet (Int+Ext)"]
-    assert f"OperatorNet (Comp)(Ext)'s d_R / OperatorNet (Int+Ext)'s (ground-truth maps) = {ratio:.1f}" in md
+    assert f"OperatorNet (Comp)(Ext)'s d_R / OperatorNet (Int+Ext)'s (ground-truth maps) = {ratio:.3g} (" in md
     get = {(r["resolution"], r["maps"], r["method"]): r["d_R"] for r in disc}
     ratio = get["5k", "computed", "OperatorNet (Ext)"] / get["1k", "exact", "OperatorNet (Int+Ext)"]
     assert f"- OperatorNet (Ext): {1e4 * get['5k', 'computed', 'OperatorNet (Ext)']:.3g}, {ratio:.1f}×" in md
     for name in ("discretisation", "generalisation"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     with pytest.raises(ValueError, match="generated 1k humans|not made by a generator"):
-        reproduce.comp_networks(tiny_collection("humans"), tmp_path, budget)
+        opnet.data.mapped_collection(tiny_collection("humans"), "2k")
     with pytest.raises(ValueError, match="shapes must be"):
         reproduce.discretisation_figure(comp, {"net": None}, shapes=0)
     with pytest.raises(ValueError, match="maps='computed'"):

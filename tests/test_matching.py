@@ -64,7 +64,7 @@ def test_encode_with_the_base_triangulation_or_a_vertex_map_is_the_fast_path(bas
     for t, expected in zip(targets, fast):
         np.testing.assert_allclose(opnet.encode(t, base_basis), expected, **tol)
         np.testing.assert_allclose(opnet.encode(t, base_basis, fmap=np.arange(t.n_vertices)), expected, **tol)
-    np.testing.assert_allclose(opnet.encode(targets[0], base_basis, kinds=("extrinsic",)), fast[0, 2:], **tol)
+    np.testing.assert_allclose(opnet.encode(targets[0], base_basis, channels=("extrinsic",)), fast[0, 2:], **tol)
 
 
 def test_a_finer_triangulation_of_the_base_gives_nearly_the_identity(small_shapes):
@@ -166,7 +166,7 @@ def test_bad_input_gets_errors_that_say_what_to_do(small_shapes):
         opnet.encode(fine, basis, fmap=opnet.matching.closest_point_map(basis, sphere))
     with pytest.raises(TypeError, match="not an opnet.FunctionalMap"):
         opnet.encode(sphere, basis, fmap=opnet.identity_fmap(basis, basis))
-    with pytest.raises(ValueError, match="kinds is empty"):
+    with pytest.raises(ValueError, match="channels is empty"):
         opnet.matching.operators_through_map(opnet.matching.closest_point_map(basis, fine), ())
     with pytest.raises(ValueError, match="to_base must be"):
         opnet.SurfaceMap(basis, fine, np.eye(3))
@@ -215,19 +215,21 @@ def test_decode_accepts_one_or_many_and_picks_the_networks_channels(humans):
     torch.manual_seed(0)
     net = opnet.OperatorNet(humans.vertices.shape[1], k=60, channels=("extrinsic",))
     ops = humans.operators[:3].astype(np.float64)
-    many = opnet.decode(net, ops)
+    many = opnet.decode(net, ops, opnet.KINDS)
     assert many.shape == (3, humans.vertices.shape[1], 3) and many.dtype == np.float64
-    np.testing.assert_allclose(opnet.decode(net, ops[1]), many[1], rtol=1e-5, atol=1e-6)
-    np.testing.assert_allclose(opnet.decode(net, ops[:, 2:], kinds=("extrinsic",)), many, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(opnet.decode(net, ops[1], opnet.KINDS), many[1], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(opnet.decode(net, ops[:, 2:]), many, rtol=1e-5, atol=1e-6)  # the network's channels
+    with pytest.raises(ValueError, match=r"C = 1 channels \('extrinsic',\) \(the network's channels"):
+        opnet.decode(net, ops)
     with pytest.raises(ValueError, match="C = 3 channels"):
-        opnet.decode(net, ops[:, :2])
+        opnet.decode(net, ops[:, :2], opnet.KINDS)
     with pytest.raises(ValueError, match="do not hold"):
-        opnet.decode(net, ops[:, :2], kinds=("area", "conformal"))
+        opnet.decode(net, ops[:, :2], channels=("area", "conformal"))
     with pytest.raises(TypeError, match="OperatorNet"):
         opnet.decode("net", ops)
     with pytest.raises(TypeError, match="not a single one"):
-        opnet.decode(net, ops[:, 2:], kinds="extrinsic")
+        opnet.decode(net, ops[:, 2:], channels="extrinsic")
     bad = ops.copy()
     bad[0, 0, 0, 0] = np.nan
     with pytest.raises(ValueError, match="NaN"):
-        opnet.decode(net, bad)
+        opnet.decode(net, bad, opnet.KINDS)

@@ -207,7 +207,7 @@ def test_an_instance_that_overrides_its_batch_is_called(base_basis, targets):
     ip = opnet.AreaInnerProduct()
     ip.project_batch = lambda vertices, faces, evecs: np.zeros((len(vertices), evecs.shape[1], evecs.shape[1]))
     assert not opnet.inner_products.is_built_in(ip)
-    D = opnet.shape_differences(base_basis, targets[0].vertices[None], kinds=[ip], progress=False)
+    D = opnet.shape_differences(base_basis, targets[0].vertices[None], channels=[ip], progress=False)
     assert not D.any()
 
 
@@ -299,7 +299,9 @@ def test_user_defined_inner_product(base, base_basis, targets):
     Gi = opnet.gram_matrix(tb, targets[0].vertices)
     C = opnet.identity_fmap(base_basis, tb).matrix
     np.testing.assert_allclose(D, opnet.pinv_psd(G0) @ C.T @ Gi @ C, atol=1e-8 * np.abs(D).max())
-    batch = opnet.shape_differences(base_basis, targets[0].vertices[None], kinds=[GramInnerProduct()], progress=False)
+    batch = opnet.shape_differences(
+        base_basis, targets[0].vertices[None], channels=[GramInnerProduct()], progress=False
+    )
     np.testing.assert_allclose(batch[0, 0], D, atol=1e-12)
 
 
@@ -327,7 +329,7 @@ def test_bad_inputs_get_clear_errors(base, base_basis, targets):
     with pytest.raises(ValueError, match=r"\(B, \d+, 3\)"):
         opnet.shape_differences(base_basis, base.vertices)
     with pytest.raises(TypeError, match="sequence"):
-        opnet.shape_differences(base_basis, base.vertices[None], kinds="area")
+        opnet.shape_differences(base_basis, base.vertices[None], channels="area")
     with pytest.raises(ValueError, match="row-stochastic"):
         opnet.fmap_from_soft_map(base_basis, other, np.ones((base.n_vertices, base.n_vertices)))
     with pytest.raises(ValueError, match="source vertex"):

@@ -20,13 +20,13 @@ def deformed(base, targets):
     return np.stack([t.vertices for t in targets])
 
 
-@pytest.mark.parametrize("kinds", [KINDS, ("extrinsic", "area"), ("conformal",)])
-def test_float64_equals_numpy_fast_path(base_basis, deformed, kinds):
-    ref = opnet.shape_differences(base_basis, deformed, kinds)
-    out = ShapeDifferences(base_basis, kinds)(torch.tensor(deformed)).numpy()
+@pytest.mark.parametrize("channels", [KINDS, ("extrinsic", "area"), ("conformal",)])
+def test_float64_equals_numpy_fast_path(base_basis, deformed, channels):
+    ref = opnet.shape_differences(base_basis, deformed, channels)
+    out = ShapeDifferences(base_basis, channels)(torch.tensor(deformed)).numpy()
     assert out.shape == ref.shape
-    for c in range(len(kinds)):  # per channel: their scales differ
-        assert np.abs(out[:, c] - ref[:, c]).max() <= 1e-10 * np.abs(ref[:, c]).max(), kinds[c]
+    for c in range(len(channels)):  # per channel: their scales differ
+        assert np.abs(out[:, c] - ref[:, c]).max() <= 1e-10 * np.abs(ref[:, c]).max(), channels[c]
 
 
 def test_float32_and_identity_at_base(base_basis, deformed):
@@ -107,7 +107,7 @@ def test_functional_shorthand_and_bad_input(base_basis, deformed):
     assert torch.allclose(
         ShapeDifferences(base_basis, (Doubled3(),)).project(deformed), 2 * module.project(deformed)[:, :1]
     )
-    assert ShapeDifferences(base_basis, (opnet.AreaInnerProduct(), "conformal")).kinds == ("area", "conformal")
+    assert ShapeDifferences(base_basis, (opnet.AreaInnerProduct(), "conformal")).channels == ("area", "conformal")
     # numpy input is accepted (converted losslessly)
     assert torch.allclose(module(deformed), module(torch.tensor(deformed)))
 

@@ -182,7 +182,7 @@ def test_nan_loss_stops_with_the_epoch_and_last_good_checkpoint(coll, tmp_path, 
 
 
 def test_bad_arguments(coll, tmp_path, tiny_collection):
-    with pytest.raises(ValueError, match="unknown channel 'volume'.*with_kinds"):
+    with pytest.raises(ValueError, match="unknown channel 'volume'.*with_channels"):
         train.fit(coll, channels="area,volume", epochs=1)
     with pytest.raises(ValueError, match="epochs must be a positive integer"):
         train.fit(coll, epochs=0)

@@ -43,7 +43,7 @@ def main() -> None:
     ax.set_axis_off()
     ax.set_title("the base shape, and a body of the test set", fontsize=9)
     ops = coll.operators[i] - np.eye(k)
-    for c, name in enumerate(coll.kinds):
+    for c, name in enumerate(coll.channels):
         a = fig.add_subplot(grid[1 + c])
         m = float(np.percentile(np.abs(ops[c, 1:, 1:]), 99.5))  # a few large entries would wash out the rest
         im = a.imshow(ops[c], cmap="RdBu_r", vmin=-m, vmax=m)

@@ -11,7 +11,8 @@ Layers, each importing only from those before it (``tests/test_data_layers.py`` 
    :mod:`~opnet.data.animals` (the rigged animals of an asset package, posed in numpy);
 4. :mod:`~opnet.data.generators` (the named collections and :func:`load_collection`), :mod:`~opnet.data.folder`
    (your own meshes);
-5. :mod:`~opnet.data.mapped` (operators through computed maps), :mod:`~opnet.data.torch_dataset`.
+5. :mod:`~opnet.data.profiles` (what applies to each collection the reproduction runs on: :class:`Profile`);
+6. :mod:`~opnet.data.mapped` (operators through computed maps), :mod:`~opnet.data.torch_dataset`.
 
 ::
 
@@ -30,6 +31,7 @@ from . import animals, toy
 from .folder import load_folder
 from .generators import generate_shapes, load_collection
 from .mapped import half_mapped, mapped_collection, three_way_mapped
+from .profiles import PROFILES, Profile, profile, profile_of, register_profile
 from .splits import furthest_point_subset, hausdorff, make_splits
 from .storage import SPLITS, Collection, CollectionError, default_root, read_collection, save_collection
 
@@ -47,6 +49,11 @@ __all__ = [
     "mapped_collection",
     "half_mapped",
     "three_way_mapped",
+    "Profile",
+    "PROFILES",
+    "profile",
+    "profile_of",
+    "register_profile",
     "default_root",
     "make_splits",
     "hausdorff",

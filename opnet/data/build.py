@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._deprecation import renamed_keyword
 from ..inner_products import INNER_PRODUCTS, channel_digest, get_inner_products
 from ..mesh import Mesh
 from ..shape_difference import KINDS, shape_differences
@@ -17,6 +18,7 @@ from .storage import Collection
 __all__ = ["assemble"]
 
 
+@renamed_keyword("kinds", "channels")
 def assemble(
     vertices: np.ndarray,
     faces: np.ndarray,
@@ -31,15 +33,15 @@ def assemble(
     progress: bool | None = None,
     n_eval: int = 5,
     fps_vertices: np.ndarray | None = None,
-    kinds=KINDS,
+    channels=KINDS,
 ) -> Collection:
     """A :class:`Collection` from shapes in correspondence: computes the base eigenbasis, the operators
     (fast path) and the evaluation subset (``n_eval`` shapes per test sub-collection by furthest-point
     sampling on Hausdorff distance: 10 × 5 = 50 as in the paper, fewer when a sequence is shorter).
-    ``fps_vertices`` (N, n', 3), default ``vertices``, are the shapes the subset is chosen on. ``kinds``: the
+    ``fps_vertices`` (N, n', 3), default ``vertices``, are the shapes the subset is chosen on. ``channels``: the
     channels computed (default the paper's three), in that order.
     """
-    ips = get_inner_products(kinds)
+    ips = get_inner_products(channels)
     base = Mesh(base_vertices, faces)
     basis = eigenbasis(base, k)
     for ip in ips:

@@ -2,7 +2,7 @@
 operators are computed for every shape, and where they are cached.
 
 A stored collection keeps the channels it was built with in its own data file. A channel added later with
-:meth:`~opnet.data.Collection.with_kinds` is cached beside it, one file per channel::
+:meth:`~opnet.data.Collection.with_channels` is cached beside it, one file per channel::
 
     <stem>.channel.<name>.<digest>.<data>.npz    operators (N, k, k) float32, and its identity
 
@@ -32,8 +32,9 @@ from ..inner_products import (
     get_inner_product,
     known_inner_products,
     rigid_motion_change,
+    split_channels,  # the channel vocabulary lives in opnet.inner_products; importable from here as before
 )
-from ..shape_difference import CHANNEL_SETS, base_pinvs, fast_path
+from ..shape_difference import base_pinvs, fast_path
 
 __all__ = [
     "split_channels",
@@ -52,32 +53,20 @@ RIGID_TOLERANCE = 1e-6
 _CHUNK = 32
 
 
-def split_channels(channels) -> list:
-    """``"area,extrinsic"``, a short name of :data:`opnet.CHANNEL_SETS` (``"A+E"``), one channel or
-    a sequence of channels → a list of channels (names, instances, classes).
-    """
-    if isinstance(channels, str):
-        if channels in CHANNEL_SETS:
-            return list(CHANNEL_SETS[channels])
-        return [c.strip() for c in channels.split(",")]
-    if isinstance(channels, InnerProduct) or (isinstance(channels, type) and issubclass(channels, InnerProduct)):
-        return [channels]
-    return list(channels)
-
-
-def resolve(channels, kinds: tuple, digests: dict, instances: dict, *, where: str = "the collection") -> list:
-    """``[(name, instance or None)]`` of ``channels`` asked of a collection holding ``kinds`` (``digests``: their
-    recorded digests; ``instances``: the inner products it was given this session), in the order asked.
+def resolve(channels, held: tuple, digests: dict, instances: dict, *, where: str = "the collection") -> list:
+    """``[(name, instance or None)]`` of ``channels`` asked of a collection holding the channels ``held``
+    (``digests``: their recorded digests; ``instances``: the inner products it was given this session), in the order
+    asked.
 
     A name it holds needs no instance (``None`` when none is known); an instance must have the digest it recorded.
-    A channel it does not hold raises a :class:`~opnet.inner_products.ChannelError` naming ``with_kinds``.
+    A channel it does not hold raises a :class:`~opnet.inner_products.ChannelError` naming ``with_channels``.
     """
     items = split_channels(channels)
     if not items:
-        raise ChannelError(f"no channels asked for; name at least one of {where}'s {list(kinds)}.")
+        raise ChannelError(f"no channels asked for; name at least one of {where}'s {list(held)}.")
     out = []
     for item in items:
-        if isinstance(item, str) and item in kinds:
+        if isinstance(item, str) and item in held:
             name, ip = item, instances.get(item) or known_inner_products().get(item)
             if ip is not None and digests.get(name) not in (None, channel_digest(ip)):
                 ip = None  # the registered one is another implementation: the stored operators still select
@@ -85,19 +74,19 @@ def resolve(channels, kinds: tuple, digests: dict, instances: dict, *, where: st
             try:
                 ip = get_inner_product(item)
             except ChannelError as exc:
-                raise ChannelError(f"{exc} {where.capitalize()} holds {list(kinds)}.") from None
+                raise ChannelError(f"{exc} {where.capitalize()} holds {list(held)}.") from None
             name = ip.name
-            if name not in kinds:
+            if name not in held:
                 raise ChannelError(
-                    f"{where} holds the channels {list(kinds)}, not {name!r}: add it with "
-                    f"collection.with_kinds([*collection.kinds, {_show(item)}])."
+                    f"{where} holds the channels {list(held)}, not {name!r}: add it with "
+                    f"collection.with_channels([*collection.channels, {_show(item)}])."
                 )
             recorded = digests.get(name)
             if recorded is not None and recorded != channel_digest(ip):
                 raise ChannelError(
                     f"{where}'s channel {name!r} was computed by another implementation of it (digest {recorded}; "
                     f"this {type(ip).__name__} has {channel_digest(ip)}): its code or parameters changed since. "
-                    "Compute it again with collection.with_kinds([...], recompute=True), or give the new class "
+                    "Compute it again with collection.with_channels([...], recompute=True), or give the new class "
                     "another name."
                 )
         out.append((name, ip))
@@ -157,7 +146,7 @@ def compute_operators(
         else:
             from .._extras import require
 
-            joblib = require("joblib", "Collection.with_kinds (channels without project_batch, in processes)")
+            joblib = require("joblib", "Collection.with_channels (channels without project_batch, in processes)")
             parallel = joblib.Parallel(n_jobs=-1 if n_jobs is None else n_jobs, return_as="generator")
             task = joblib.delayed(_project_chunk)
             results = parallel(task(ip, k0_pinv, basis.mesh.faces, basis.evecs, c) for c in chunks)

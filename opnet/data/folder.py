@@ -6,17 +6,19 @@ from pathlib import Path
 
 import numpy as np
 
+from .._deprecation import renamed_keyword
+from ..inner_products import split_channels
 from ..mesh import MeshError, load_mesh
 from ..shape_difference import KINDS
-from . import channels as _channels
 from .build import assemble
 from .storage import SPLITS, Collection, CollectionError
 
 __all__ = ["load_folder"]
 
 
+@renamed_keyword("kinds", "channels")
 def load_folder(
-    folder, *, base: str | None = None, k: int = 60, kinds=None, progress: bool | None = None
+    folder, *, base: str | None = None, k: int = 60, channels=None, progress: bool | None = None
 ) -> Collection:
     """A collection from a folder of your own meshes in correspondence (same faces, any of .ply .obj .off).
 
@@ -25,7 +27,7 @@ def load_folder(
     ``filename,split,subcollection`` or ``filename,split,subcollection,subject`` (a header line ``filename,...``
     is allowed) assigns splits; every sub-collection must lie in one split. A shape's subject is its
     sub-collection's name when not given. Unlisted shapes are ``"train"``, each in a sub-collection (and subject)
-    named after its file. ``kinds``: the channels to compute (names or inner products, default
+    named after its file. ``channels``: the channels to compute (names or inner products, default
     :data:`opnet.KINDS`), in that order. Save the result with :func:`~opnet.data.save_collection`.
     """
     folder = Path(folder).resolve()
@@ -118,5 +120,5 @@ def load_folder(
         meta,
         k=k,
         progress=progress,
-        kinds=KINDS if kinds is None else _channels.split_channels(kinds),
+        channels=KINDS if channels is None else split_channels(channels),
     )

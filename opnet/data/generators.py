@@ -12,9 +12,11 @@ from __future__ import annotations
 import operator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
+from .._deprecation import renamed_keyword
 from . import animals, hands, heads, humans
 from .build import assemble
 from .splits import make_splits
@@ -184,17 +186,86 @@ def _build(
     )
 
 
+@dataclass(frozen=True)
+class Design:
+    """A generated collection of bodies in motion: its motions, how a frame of a motion and a random pose are drawn
+    (``sequence(motion, n_frames, amplitude=, offset=)``, ``random(n, rng)``: per-shape controls), its shapes
+    (``vertices(resolution)`` → ``evaluate(subjects, controls) → (N, n, 3)``), the base's control (``rest()``) and
+    its faces (``faces(resolution)``) on each of its ``resolutions`` (the base's first).
+    """
+
+    motions: tuple
+    sequence: Callable
+    random: Callable
+    vertices: Callable
+    rest: Callable
+    faces: Callable
+    resolutions: tuple = ("native",)
+
+    def build(self, preset, resolution, seed, meta, progress=None, **draws):
+        """The collection at ``preset`` and ``resolution`` (:func:`load_collection`'s builder); on a resolution other
+        than the base's, the evaluation subset is chosen on the base's shapes, so every resolution gets the same.
+        """
+        reference = None if resolution == self.resolutions[0] else self.vertices(self.resolutions[0])
+        return _build(
+            preset,
+            seed,
+            meta,
+            progress,
+            motions=self.motions,
+            sequence=self.sequence,
+            random=self.random,
+            evaluate=self.vertices(resolution),
+            rest=self.rest(),
+            faces=self.faces(resolution),
+            reference=reference,
+            **draws,
+        )
+
+
+def _human_vertices(resolution):
+    return lambda subjects, poses: humans.human_vertices(subjects, poses, resolution)
+
+
+#: The generated collections of bodies in motion, by name.
+DESIGNS = {
+    "humans": Design(
+        humans.ACTIONS,
+        humans.action_poses,
+        humans.random_poses,
+        _human_vertices,
+        humans.rest_pose,
+        humans.human_faces,
+        humans.RESOLUTIONS,
+    ),
+    "heads": Design(
+        tuple(heads.HEAD_EXPRESSIONS),
+        heads.expression_sequence,
+        heads.random_expressions,
+        lambda resolution: heads.head_vertices,
+        lambda: np.zeros(len(heads.FACIAL_ACTIONS)),
+        lambda resolution: heads.head_faces(),
+    ),
+    "hands": Design(
+        tuple(hands.HAND_GESTURES),
+        hands.gesture_sequence,
+        hands.random_hand_poses,
+        lambda resolution: hands.hand_vertices,
+        lambda: hands.hand_poses({}, 1)[0],
+        lambda resolution: hands.hand_faces(),
+    ),
+}
+
+
 def _evaluator(name: str, resolution: str):
-    """``evaluate(subjects (N, 6), controls (N, ...)) → vertices (N, n, 3)`` of a named collection."""
-    if name == "humans":
-        return lambda subj, poses: humans.human_vertices(subj, poses, resolution)
+    """``evaluate(subjects, controls) → vertices (N, n, 3)`` of a named collection."""
     if name == "animals":  # "subjects": species weights (N, S); "controls": (clip, phase, turns)
         return lambda weights, poses: animals.registered_species().shapes(weights, poses)
-    return {"heads": heads.head_vertices, "hands": hands.hand_vertices}[name]
+    return DESIGNS[name].vertices(resolution)
 
 
 #: name -> the motion sequences every subject performs (body actions, facial expressions, hand gestures)
-MOTIONS = {"humans": humans.ACTIONS, "heads": tuple(heads.HEAD_EXPRESSIONS), "hands": tuple(hands.HAND_GESTURES)}
+MOTIONS = {name: d.motions for name, d in DESIGNS.items()}
 
 
 def shape_count(name: str, preset: str) -> int:
@@ -207,67 +278,12 @@ def shape_count(name: str, preset: str) -> int:
     return p.subjects * (len(MOTIONS[name]) * p.frames + p.random)
 
 
-def _humans(preset, resolution, seed, meta, progress=None, **draws):
-    one_k = None if resolution == "1k" else _evaluator("humans", "1k")
-    return _build(
-        preset,
-        seed,
-        meta,
-        progress,
-        motions=MOTIONS["humans"],
-        sequence=humans.action_poses,
-        random=humans.random_poses,
-        evaluate=_evaluator("humans", resolution),
-        rest=humans.rest_pose(),
-        faces=humans.human_faces(resolution),
-        reference=one_k,
-        **draws,
-    )
-
-
-def _heads(preset, resolution, seed, meta, progress=None, **draws):
-    return _build(
-        preset,
-        seed,
-        meta,
-        progress,
-        motions=MOTIONS["heads"],
-        sequence=heads.expression_sequence,
-        random=heads.random_expressions,
-        evaluate=_evaluator("heads", resolution),
-        rest=np.zeros(len(heads.FACIAL_ACTIONS)),
-        faces=heads.head_faces(),
-        **draws,
-    )
-
-
-def _hands(preset, resolution, seed, meta, progress=None, **draws):
-    return _build(
-        preset,
-        seed,
-        meta,
-        progress,
-        motions=MOTIONS["hands"],
-        sequence=hands.gesture_sequence,
-        random=hands.random_hand_poses,
-        evaluate=_evaluator("hands", resolution),
-        rest=hands.hand_poses({}, 1)[0],
-        faces=hands.hand_faces(),
-        **draws,
-    )
-
-
 def _animals(preset, resolution, seed, meta, progress=None, root=None):
     return animals.animal_collection(preset, seed, meta, root, progress)
 
 
 #: name -> (generator, resolutions it offers; the first is the default)
-GENERATORS = {
-    "humans": (_humans, humans.RESOLUTIONS),
-    "heads": (_heads, ("native",)),
-    "hands": (_hands, ("native",)),
-    "animals": (_animals, ("native",)),
-}
+GENERATORS = {name: (d.build, d.resolutions) for name, d in DESIGNS.items()} | {"animals": (_animals, ("native",))}
 
 
 def generated_name(collection) -> str:
@@ -309,10 +325,8 @@ def generate_shapes(collection, phenotypes, controls, *, resolution: str | None 
         )
     if resolution is None:
         resolution = collection.meta.get("resolution")
-    elif name != "humans" or resolution not in humans.RESOLUTIONS:
-        raise ValueError(
-            f"resolution applies to the humans, one of {list(humans.RESOLUTIONS)}; got {resolution!r} for the {name}."
-        )
+    elif resolution not in GENERATORS[name][1]:
+        raise ValueError(f"the {name} come in the resolutions {list(GENERATORS[name][1])}; got {resolution!r}.")
     return _evaluator(name, resolution)(phenotypes, controls)
 
 
@@ -387,6 +401,7 @@ def stem_name(meta: dict) -> str:
     return stem + (f"-{meta['builder'][:8]}" if "builder" in meta else "")
 
 
+@renamed_keyword("kinds", "channels")
 def load_collection(
     name: str,
     preset: str = "quick",
@@ -396,7 +411,7 @@ def load_collection(
     seed: int = 0,
     rebuild: bool = False,
     progress: bool | None = None,
-    kinds=None,
+    channels=None,
     bodies: str = "subject",
     poses: str = "sequence",
 ) -> Collection:
@@ -409,8 +424,9 @@ def load_collection(
     its parameters match; a corrupt or mismatched one raises :class:`~opnet.data.CollectionError` naming the fix
     (``rebuild=True``).
 
-    ``kinds``: the channels wanted (names or inner products, in order; default :data:`opnet.KINDS`). The collection
-    is built and stored with the paper's three; others are added by :meth:`Collection.with_kinds` and cached beside
+    ``channels``: the channels wanted (names or inner products, in order; default :data:`opnet.KINDS`). The
+    collection is built and stored with the paper's three; others are added by :meth:`Collection.with_channels` and
+    cached beside
     it, so asking for a new channel never rebuilds the shapes.
 
     ``bodies`` (:data:`BODIES`) and ``poses`` (:data:`POSES`), generated humans, heads and hands: the training
@@ -460,4 +476,4 @@ def load_collection(
         check_root(root, shape_count(name, preset) * BYTES_PER_SHAPE)
         coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress, **extra)
         save_or_warn(coll, stem)
-    return coll if kinds is None else coll.with_kinds(kinds, progress=progress)
+    return coll if channels is None else coll.with_channels(channels, progress=progress)

@@ -31,13 +31,14 @@ from pathlib import Path
 import numpy as np
 
 from .._checks import check_int, is_integer
+from .._deprecation import renamed_keyword
 from .._extras import require
 from .._files import atomic_write, remove_stale_tmp
-from ..inner_products import channel_digest, get_inner_products
+from ..inner_products import channel_digest, get_inner_products, split_channels
 from ..shape_difference import KINDS
 from . import humans
-from .channels import split_channels
 from .generators import generate_shapes, generated_name, resolution_map, stem_name
+from .profiles import PROFILES, profile_of
 from .storage import (
     BYTES_PER_SHAPE,
     Collection,
@@ -58,6 +59,7 @@ _FORMAT = 1  # of the parts and of what the stem's hash covers
 _FIELDS = ("operators", "map_error", "coverage", "orientation")  # of a part
 
 
+@renamed_keyword("kinds", "channels")
 def mapped_collection(
     collection: Collection,
     resolution: str = "2k",
@@ -69,7 +71,7 @@ def mapped_collection(
     n_jobs: int = -1,
     chunk: int = 32,
     k: int = MAP_K,
-    kinds=None,
+    channels=None,
     progress: bool | None = None,
 ) -> Collection:
     """``collection``'s shapes (or those of ``indices``) with operators through maps from their ``resolution`` mesh.
@@ -95,7 +97,7 @@ def mapped_collection(
         give every process a part (a dozen shapes on 2 cores: two parts of 6, both cores busy).
     k : int
         Functions at the end of ZoomOut (:func:`opnet.matching.compute_map`).
-    kinds : channels, optional
+    channels : channels, optional
         The channels to compute through the maps (names or inner products, in order; default :data:`opnet.KINDS`).
         Each one's :meth:`~opnet.InnerProduct.pull_back` carries it onto the base. Other channels are another
         cached collection (the stem's hash covers their digests).
@@ -109,10 +111,13 @@ def mapped_collection(
     """
     if not isinstance(collection, Collection):
         raise TypeError(f"collection must be an opnet.data.Collection, got {type(collection).__name__}.")
-    if generated_name(collection) != "humans" or collection.meta.get("resolution") != "1k":
+    p = profile_of(generated_name(collection))
+    if not p.computed_maps or collection.meta.get("resolution") != p.resolutions[0]:
+        offered = [name for name, q in PROFILES.items() if q.computed_maps]
         raise ValueError(
-            "mapped collections are made from the generated 1k humans "
-            "(opnet.data.load_collection('humans', preset)): they alone come in other triangulations."
+            f"mapped collections are made from a generated collection at its base resolution whose profile has other "
+            f"triangulations (computed_maps: {offered}, e.g. the 1k humans, opnet.data.load_collection('humans', "
+            f"preset)); this one is the {p.name} at {collection.meta.get('resolution')!r}."
         )
     if resolution not in humans.RESOLUTIONS:
         raise ValueError(f"resolution must be one of {list(humans.RESOLUTIONS)}, got {resolution!r}.")
@@ -122,7 +127,7 @@ def mapped_collection(
     check_int("k", k)
     if not is_integer(n_jobs) or n_jobs == 0:
         raise ValueError(f"n_jobs must be a non-zero integer (-1: all cores), got {n_jobs!r}.")
-    ips = get_inner_products(KINDS if kinds is None else split_channels(kinds))
+    ips = get_inner_products(KINDS if channels is None else split_channels(channels))
     source = collection if indices is None else collection.subset(indices)
     if len(source) == 0:
         raise ValueError("indices is empty: give at least one shape index.")
@@ -157,7 +162,7 @@ def mapped_collection(
         operators=operators,
         params=params,
         meta=meta,
-        kinds=names,
+        channels=names,
         digests=dict(zip(names, map(channel_digest, ips))),
     )
     out._instances.update(zip(names, ips))

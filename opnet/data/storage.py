@@ -19,7 +19,7 @@ generated from. On disk, a collection stored under the path ``stem`` is two file
     shapes of the arrays, the operators' channels (``channels``: names in order; ``channel_digests``: each one's
     :func:`opnet.channel_digest`), the data file's name and its full SHA-256.
 
-Channels added later (:meth:`Collection.with_kinds`) are cached beside these two files, one file per channel
+Channels added later (:meth:`Collection.with_channels`) are cached beside these two files, one file per channel
 (:mod:`opnet.data.channels`); a collection written before channels were recorded holds :data:`opnet.KINDS`.
 
 Format 2 (before the ``subject`` array) is read too: each shape's subject is then its sub-collection's name up to
@@ -46,8 +46,16 @@ from pathlib import Path
 
 import numpy as np
 
+from .._deprecation import renamed_keyword, warn_renamed
 from .._files import remove_stale_tmp, tmp_name
-from ..inner_products import INNER_PRODUCTS, ChannelError, channel_digest, channel_identity, get_inner_product
+from ..inner_products import (
+    INNER_PRODUCTS,
+    ChannelError,
+    channel_digest,
+    channel_identity,
+    get_inner_product,
+    split_channels,
+)
 from ..mesh import Mesh
 from ..shape_difference import KINDS
 from ..spectral import Eigenbasis
@@ -80,6 +88,11 @@ class Collection:
     ``subcollection`` (N,) names each shape's sequence (for a generated collection ``"subject03/walk"``: one
     subject's motion), the unit that splits hold out whole; ``subject`` (N,) names the person (``"subject03"``),
     the unit of the ``test_subjects`` split. For a folder of your own meshes both come from ``splits.csv``.
+
+    ``channels``: the names of the operators' channels, in the order of their second axis (default
+    :data:`opnet.KINDS`); ``digests``: each one's :func:`opnet.channel_digest`. The old name ``kinds`` (the field
+    :attr:`kinds`, ``Collection(..., kinds=...)``, :meth:`with_kinds`) still works and warns once
+    (``DeprecationWarning``).
     """
 
     vertices: np.ndarray
@@ -92,11 +105,11 @@ class Collection:
     eval_subset: np.ndarray
     params: dict = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
-    kinds: tuple = KINDS
+    channels: tuple = KINDS
     digests: dict = field(default_factory=dict)
     # where it is stored, (stem, data SHA-256), so that channels added later are cached beside it
     _stored: tuple | None = field(default=None, init=False, repr=False)
-    # the inner products given to with_kinds this session, by name (what apps and refinement recompute with)
+    # the inner products given to with_channels this session, by name (what apps and refinement recompute with)
     _instances: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
@@ -108,18 +121,26 @@ class Collection:
         lengths = {f: len(getattr(self, f)) for f in ("vertices", "operators", "split", "subcollection", "subject")}
         if len(set(lengths.values())) != 1:
             raise ValueError(f"a collection's per-shape arrays must have one length each, got {lengths}.")
-        if isinstance(self.kinds, str) or not all(isinstance(c, str) for c in self.kinds):
-            raise TypeError(f"kinds must be a tuple of channel names, got {self.kinds!r}.")
-        self.kinds = tuple(self.kinds)
-        if len(set(self.kinds)) != len(self.kinds) or np.ndim(self.operators) != 4:
-            raise ValueError(f"kinds must name each channel once, and operators be (N, C, k, k); got {self.kinds}.")
-        if self.operators.shape[1] != len(self.kinds):
+        if isinstance(self.channels, str) or not all(isinstance(c, str) for c in self.channels):
+            raise TypeError(f"channels must be a tuple of channel names, got {self.channels!r}.")
+        self.channels = tuple(self.channels)
+        if len(set(self.channels)) != len(self.channels) or np.ndim(self.operators) != 4:
             raise ValueError(
-                f"operators hold {self.operators.shape[1]} channels (shape {self.operators.shape}) but kinds names "
-                f"{len(self.kinds)}: {self.kinds}."
+                f"channels must name each channel once, and operators be (N, C, k, k); got {self.channels}."
+            )
+        if self.operators.shape[1] != len(self.channels):
+            raise ValueError(
+                f"operators hold {self.operators.shape[1]} channels (shape {self.operators.shape}) but channels "
+                f"names {len(self.channels)}: {self.channels}."
             )
         recorded = dict(self.digests)
-        self.digests = {c: recorded.get(c) or _builtin_digest(c) for c in self.kinds}
+        self.digests = {c: recorded.get(c) or _builtin_digest(c) for c in self.channels}
+
+    @property
+    def kinds(self) -> tuple:
+        """Deprecated name of :attr:`channels` (warns once)."""
+        warn_renamed("Collection.kinds", "Collection.channels")
+        return self.channels
 
     def __len__(self) -> int:
         return len(self.vertices)
@@ -182,7 +203,7 @@ class Collection:
             eval_subset,
             {k: v[idx] for k, v in self.params.items()},
             dict(self.meta),
-            self.kinds,
+            self.channels,
             dict(self.digests),
         )
         out._instances.update(self._instances)
@@ -207,7 +228,7 @@ class Collection:
                 raise TypeError(f"others must be opnet.data.Collection objects, got {type(other).__name__}.")
             same = (
                 other.vertices.shape[1:] == self.vertices.shape[1:]
-                and other.kinds == self.kinds
+                and other.channels == self.channels
                 and other.digests == self.digests
                 and other.base_basis.k == self.base_basis.k
                 and np.array_equal(other.base_basis.mesh.vertices, self.base_basis.mesh.vertices)
@@ -217,7 +238,7 @@ class Collection:
             if not same:
                 raise ValueError(
                     f"{other!r} cannot lend its training shapes to {self!r}: they need the same base shape, basis "
-                    "size and eigenvectors, faces and channels (with_kinds gives them the same channels)."
+                    "size and eigenvectors, faces and channels (with_channels gives them the same channels)."
                 )
             parts.append(other.subset(other.indices("train")))
         if len(parts) == 1:
@@ -236,7 +257,7 @@ class Collection:
             self.eval_subset,
             params,
             dict(self.meta, training_from=[dict(p.meta) for p in parts[1:]]),
-            self.kinds,
+            self.channels,
             dict(self.digests),
         )
         out._instances.update(self._instances)
@@ -248,54 +269,57 @@ class Collection:
     def channel_names(self, channels) -> tuple[str, ...]:
         """The names of ``channels`` asked of this collection, in that order: names it holds, instances (their
         recorded implementation checked), ``"area,extrinsic"``, a short name of :data:`opnet.CHANNEL_SETS` or
-        ``"module:Class"``. A channel it does not hold raises a ``ChannelError`` naming :meth:`with_kinds`.
+        ``"module:Class"``. A channel it does not hold raises a ``ChannelError`` naming :meth:`with_channels`.
         """
         return tuple(name for name, _ in self._resolve(channels))
 
     def channel_indices(self, channels) -> list[int]:
         """Positions of ``channels`` (as in :meth:`channel_names`) on the second axis of :attr:`operators`."""
-        return [self.kinds.index(name) for name in self.channel_names(channels)]
+        return [self.channels.index(name) for name in self.channel_names(channels)]
 
     def operators_for(self, channels) -> np.ndarray:
         """The operators ``(N, len(channels), k, k)`` float32 of ``channels`` (as in :meth:`channel_names`), in the
         order asked (a copy unless they are all of :attr:`operators`, in order).
         """
         idx = self.channel_indices(channels)
-        return self.operators if idx == list(range(len(self.kinds))) else self.operators[:, idx]
+        return self.operators if idx == list(range(len(self.channels))) else self.operators[:, idx]
 
     def inner_products(self, channels=None) -> list:
-        """The inner products of ``channels`` (default all of :attr:`kinds`): what the operators of a new shape are
+        """The inner products of ``channels`` (default all of :attr:`channels`): what the operators of a new shape are
         computed with (the algebra of :mod:`opnet.apps`, refinement). A channel of your own that was read back
         from disk is known once you pass its instance (or register it, :func:`opnet.register_inner_product`).
         """
         out = []
-        for name, ip in self._resolve(self.kinds if channels is None else channels):
+        for name, ip in self._resolve(self.channels if channels is None else channels):
             if ip is None:
                 raise ChannelError(
                     f"the collection holds the operators of channel {name!r} but not its inner product (it was read "
-                    f"from disk): pass the instance (collection.with_kinds([..., MyIP()]) or channels=[MyIP()]) or "
+                    f"from disk): pass the instance (collection.with_channels([..., MyIP()]) or channels=[MyIP()]) or "
                     "opnet.register_inner_product(MyIP()) to compute it for new shapes."
                 )
             out.append(ip)
         return out
 
     def identities(self, channels=None) -> list[dict]:
-        """``[{"name", "digest", "spec"}]`` of ``channels`` (default all of :attr:`kinds`): what a run records of its
+        """``[{"name", "digest", "spec"}]`` of ``channels`` (default all of :attr:`channels`): what a run records of its
         input (``spec``: ``"module:Class"`` when the inner product is known here and importable, else ``None``).
         """
         out = []
-        for name, ip in self._resolve(self.kinds if channels is None else channels):
+        for name, ip in self._resolve(self.channels if channels is None else channels):
             spec = None if ip is None else channel_identity(ip)["spec"]
             out.append({"name": name, "digest": self.digests.get(name), "spec": spec})
         return out
 
     def _resolve(self, channels) -> list:
-        return _channels.resolve(channels, self.kinds, self.digests, self._instances)
+        return _channels.resolve(channels, self.channels, self.digests, self._instances)
 
-    def with_kinds(self, kinds, *, recompute: bool = False, n_jobs: int | None = None, progress=None) -> Collection:
-        """A copy of this collection with the channels ``kinds`` (names, instances, classes or ``"module:Class"``), in
-        that order: the ones it holds are kept, the others computed for every shape (fast path, ``project_batch`` where
-        the inner product has one, else shape by shape in ``n_jobs`` processes, with a progress bar).
+    def with_channels(
+        self, channels, *, recompute: bool = False, n_jobs: int | None = None, progress=None
+    ) -> Collection:
+        """A copy of this collection with the channels ``channels`` (names, instances, classes, ``"module:Class"``,
+        ``"area,extrinsic"`` or a short name of :data:`opnet.CHANNEL_SETS`), in that order: the ones it holds are
+        kept, the others computed for every shape (fast path, ``project_batch`` where the inner product has one, else
+        shape by shape in ``n_jobs`` processes, with a progress bar).
 
         A stored collection caches each new channel beside it (one file per channel, keyed by the channel's digest:
         :mod:`opnet.data.channels`), so asking again reads it back and nothing of the collection is rewritten.
@@ -303,26 +327,26 @@ class Collection:
         again, even where it holds one of that name or a cache file has them (e.g. after editing a helper the class
         calls); names it holds are kept. A channel that is not invariant to rigid motions warns.
 
-        Returns a new :class:`Collection` whose :attr:`kinds` are ``kinds`` and :attr:`operators`
-        ``(N, len(kinds), k, k)``; the vertices and splits are shared with this one.
+        Returns a new :class:`Collection` whose :attr:`channels` are ``channels`` and :attr:`operators`
+        ``(N, len(channels), k, k)``; the vertices and splits are shared with this one.
         """
-        items = _channels.split_channels(kinds)
+        items = split_channels(channels)
         if not items:
-            raise ChannelError("kinds is empty: ask for at least one channel (e.g. ['area', MyIP()]).")
+            raise ChannelError("channels is empty: ask for at least one channel (e.g. ['area', MyIP()]).")
         columns, names, digests, instances = [], [], {}, dict(self._instances)
         for item in items:
-            held = isinstance(item, str) and item in self.kinds  # a name it holds: kept as it is
+            held = isinstance(item, str) and item in self.channels  # a name it holds: kept as it is
             if held:
                 ((name, ip),) = self._resolve([item])
             else:
                 ip = get_inner_product(item)
                 name = ip.name
-                if name in self.kinds and not recompute:
+                if name in self.channels and not recompute:
                     self._resolve([ip])  # refuses another implementation of a channel it holds
             if name in names:
-                raise ChannelError(f"kinds names the channel {name!r} twice; give each once.")
-            if name in self.kinds and (held or not recompute):
-                columns.append(self.operators[:, self.kinds.index(name)])
+                raise ChannelError(f"channels names the channel {name!r} twice; give each once.")
+            if name in self.channels and (held or not recompute):
+                columns.append(self.operators[:, self.channels.index(name)])
                 digests[name] = self.digests.get(name)
             else:
                 columns.append(self._compute_channel(ip, n_jobs=n_jobs, progress=progress, cached=not recompute))
@@ -347,6 +371,11 @@ class Collection:
         out._stored, out._instances = self._stored, instances
         return out
 
+    def with_kinds(self, kinds, **options) -> Collection:
+        """Deprecated name of :meth:`with_channels` (warns once)."""
+        warn_renamed("Collection.with_kinds", "Collection.with_channels")
+        return self.with_channels(kinds, **options)
+
     def _compute_channel(self, ip, *, n_jobs, progress, cached: bool = True) -> np.ndarray:
         """One channel's operators ``(N, k, k)`` for every shape: read from the cache beside the stored collection
         when there, else computed (and cached).
@@ -355,7 +384,7 @@ class Collection:
             raise ChannelError(
                 f"this collection's operators come through maps from its shapes' {self.meta.get('map_resolution')} "
                 f"meshes; compute channel {ip.name!r} through the same maps: opnet.data.mapped_collection(source, "
-                f"..., kinds=[..., {type(ip).__name__}()])."
+                f"..., channels=[..., {type(ip).__name__}()])."
             )
         digest = channel_digest(ip)
         shape = (len(self), self.base_basis.k, self.base_basis.k)
@@ -375,8 +404,12 @@ class Collection:
         counts = {s: int(np.sum(self.split == s)) for s in SPLITS}
         return (
             f"Collection({self.meta.get('name', '?')!r}, preset={self.meta.get('preset')!r}, shapes={len(self)}, "
-            f"vertices={self.vertices.shape[1]}, k={self.base_basis.k}, kinds={self.kinds}, splits={counts})"
+            f"vertices={self.vertices.shape[1]}, k={self.base_basis.k}, channels={self.channels}, splits={counts})"
         )
+
+
+# ``Collection(..., kinds=...)``: the field's old name, still taken (deprecated)
+Collection.__init__ = renamed_keyword("kinds", "channels", where="Collection")(Collection.__init__)
 
 
 def _builtin_digest(name: str) -> str | None:
@@ -451,8 +484,8 @@ def save_collection(coll: Collection, path) -> Path:
             data=data.name,
             sha256=digest,
             shapes={k: list(v.shape) for k, v in arrays.items()},
-            channels=list(coll.kinds),  # the order of the operators' second axis
-            channel_digests={c: coll.digests.get(c) for c in coll.kinds},
+            channels=list(coll.channels),  # the order of the operators' second axis
+            channel_digests={c: coll.digests.get(c) for c in coll.channels},
         )
         tmp_manifest.write_text(json.dumps(manifest, indent=1, sort_keys=True, default=_json_scalar))
         os.replace(tmp_manifest, stem.with_name(stem.name + ".json"))  # the commit point
@@ -534,10 +567,14 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
             f"({type(exc).__name__}: {str(exc)[:200]}); {fix}."
         ) from None
     params = {k[len("param_") :]: data.pop(k) for k in list(data) if k.startswith("param_")}
-    kinds = manifest.get("channels", list(KINDS))  # written before channels were recorded: KINDS
-    if not isinstance(kinds, list) or len(kinds) != data["operators"].shape[1] or len(set(kinds)) != len(kinds):
+    channels = manifest.get("channels", list(KINDS))  # written before channels were recorded: KINDS
+    if (
+        not isinstance(channels, list)
+        or len(channels) != data["operators"].shape[1]
+        or len(set(channels)) != len(channels)
+    ):
         raise CollectionError(
-            f"the manifest {manifest_path} names the channels {kinds!r} for operators of shape "
+            f"the manifest {manifest_path} names the channels {channels!r} for operators of shape "
             f"{data['operators'].shape}; {fix}."
         )
     if "subject" not in data:  # format 2: a generated collection names its sequences "<subject>/<motion>"
@@ -556,7 +593,7 @@ def read_collection(path, expected_meta: dict | None = None) -> Collection:
         data["eval_subset"],
         params,
         meta,
-        tuple(kinds),
+        tuple(channels),
         manifest.get("channel_digests") or {},
     )
     coll._stored = (stem, manifest["sha256"])

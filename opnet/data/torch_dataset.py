@@ -13,13 +13,13 @@ class OperatorDataset(torch.utils.data.Dataset):
 
     ``channels`` picks any of the collection's channels (names or inner products,
     :meth:`~opnet.data.storage.Collection.channel_names`), returned in the order given; default all of
-    ``collection.kinds``. So a model can be trained on Int, Ext or
+    ``collection.channels``. So a model can be trained on Int, Ext or
     Int+Ext inputs (the paper's ablation), or on a channel of your own.
     """
 
     def __init__(self, collection, split: str = "train", channels=None):
         self.indices = collection.indices(split)
-        self.channels = collection.channel_names(collection.kinds if channels is None else channels)
+        self.channels = collection.channel_names(collection.channels if channels is None else channels)
         chans = collection.channel_indices(self.channels)
         self.operators = torch.from_numpy(
             np.ascontiguousarray(collection.operators[self.indices][:, chans], np.float32)

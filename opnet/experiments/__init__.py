@@ -10,16 +10,21 @@ ablation over any channels (:func:`~opnet.experiments.runner.ablation`).
     rows = opnet.experiments.evaluate_runs(runs, coll, ("val",))
     table = opnet.ablation(coll, channel_sets=[["area"], ["area", MyIP()]], depths=[1, 2], epochs=20)
 
-:mod:`opnet.reproduce` declares the paper's networks this way and runs them with the same runner;
+:mod:`opnet.experiments.plan` declares the reproduction's entries (networks, baselines, refinements) and
+:func:`~opnet.experiments.runner.run_entries` runs them with the same runner (:mod:`opnet.reproduce` selects them);
 :func:`~opnet.experiments.shipped.shipped_results` reads the `default` reproductions that ship with opnet (the
 humans', and the animals' with ``collection="animals"``).
 """
 
+from .baselines import BASELINES, register_baseline
+from .config import EvaluateConfig, ReproduceConfig
 from .paper import PAPER_ABLATION, PAPER_TABLE1
+from .plan import BUDGETS, Budget, Entry, Plan, declare, select
 from .report import results_markdown
-from .runner import Results, Run, ablation, evaluate_runs, train_run
+from .runner import Results, Run, Workspace, ablation, evaluate_runs, run_entries, train_run
 from .shipped import shipped_figure, shipped_results
 from .spec import RunSpec
+from .targets import TARGETS, Target, judge
 
 __all__ = [
     "RunSpec",
@@ -28,6 +33,21 @@ __all__ = [
     "train_run",
     "evaluate_runs",
     "ablation",
+    "Entry",
+    "Plan",
+    "declare",
+    "select",
+    "Budget",
+    "BUDGETS",
+    "BASELINES",
+    "register_baseline",
+    "Workspace",
+    "run_entries",
+    "Target",
+    "TARGETS",
+    "judge",
+    "ReproduceConfig",
+    "EvaluateConfig",
     "results_markdown",
     "shipped_results",
     "shipped_figure",

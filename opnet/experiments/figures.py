@@ -13,8 +13,8 @@ import numpy as np
 
 from .._extras import require
 from ..evaluate import evenly_spaced, operatornet_method, test_set_indices
-from .paper import PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS
-from .report import MAPPED_GROUPS, PAPER_TABLE1_ROWS, ablation_table, matches, row_key
+from .paper import PAPER_ABLATION_DEPTHS
+from .report import MAPPED_GROUPS, PAPER_TABLE1_ROWS, ablation_columns, ablation_table, matches, row_key
 
 __all__ = [
     "table1_figures",
@@ -60,15 +60,15 @@ def table1_figures(out: Path, coll, ours, nn, histories: dict) -> None:
 
 
 def ablation_figure(rows):
-    """The ablation's heat map (:func:`opnet.plotting.plot_ablation` of :func:`ablation_table`): a matplotlib
-    figure.
+    """The ablation's heat map (:func:`opnet.plotting.plot_ablation` of :func:`ablation_table`, every set the rows
+    hold: :func:`ablation_columns`): a matplotlib figure.
     """
     from ..plotting import plot_ablation
 
     return plot_ablation(
         ablation_table(rows),
         [f"Conv. {'×'.join(str(8 * 2**i) for i in range(d))}" for d in PAPER_ABLATION_DEPTHS],
-        list(PAPER_ABLATION_SETS),
+        ablation_columns(rows),
     )
 
 
@@ -236,7 +236,7 @@ def generalisation_figure(rows: list[dict]):
     ``channels``, ``group``, ``run``, ``refined``, ``bodies``, ``poses``, ``seeds``, ``resolution``, ``maps``); the
     method names only label them.
     """
-    from .. import KINDS
+    from ..inner_products import KINDS
 
     plt = require("matplotlib.pyplot", "generalisation_figure")
     table1 = [r for r in rows if r.get("table") == "table1" and r["split"] in ("test", "test_subjects")]

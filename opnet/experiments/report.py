@@ -20,10 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from .._files import atomic_write
-from ..evaluate import SPECIES_SETS, channel_label, channel_names
-from ..shape_difference import KINDS
+from ..data.profiles import profile_of
+from ..evaluate import SPECIES_SETS
 from .paper import PAPER_ABLATION, PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS, PAPER_TABLE1
-from .spec import RunSpec
+from .plan import BUDGETS, PAPER_ROWS, ablation_label, declare
+from .rows import matches, row_channels
+from .targets import judge, targets_of
 
 __all__ = [
     "MAPPED_GROUPS",
@@ -44,6 +46,7 @@ __all__ = [
     "applications_markdown",
     "targets",
     "ablation_table",
+    "ablation_columns",
     "row_channels",
     "row_key",
     "upgrade_rows",
@@ -58,97 +61,48 @@ _SPLIT_NAMES = {
     "test_subjects": "unseen subjects",
     "unseen_species": "unseen species",
 }
-_KIND_NAMES = {
-    "analogy": {"pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)", "body": "body transfer (a,p):(b,p)::(a,q):(b,q)"},
-    "interpolation": {"pose": "one subject, pose to pose", "body": "one pose, subject to subject"},
-}
-#: The animals' names of the same kinds (the paper's Fig. 15: pose and animal-type transfer; its Fig. 8: tiger → horse).
-_ANIMAL_KIND_NAMES = {
-    "analogy": {
-        "pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)",
-        "body": "animal-type transfer (a,p):(b,p)::(a,q):(b,q)",
-    },
-    "interpolation": {"pose": "one animal, frame to frame of a clip", "body": "one pose, species to species"},
-}
 
 
-def _is_humans(context: dict | None) -> bool:
-    """Whether a reproduction ran on the humans (the paper's numbers apply) rather than the animals; files written
-    before ``context["data"]`` existed are the humans'.
+def _profile(context: dict | None):
+    """The profile of the collection a reproduction ran on (:func:`opnet.data.profiles.profile_of`; files written
+    before ``context["data"]`` existed are the humans').
     """
-    return (context or {}).get("data", "humans") == "humans"
-
-
-def _network(channels, group: str = "table1") -> dict:
-    """The fields of the paper's model (depth 1) on ``channels``, trained in ``group``, its output not refined."""
-    return dict(architecture="operatornet", variant="paper", group=group, channels=channels, depth=1, refined=None)
+    return profile_of((context or {}).get("data"))
 
 
 #: The rows standing for each row of the paper's Table 1 (:data:`~opnet.experiments.paper.PAPER_TABLE1`): the fields
-#: they have (:func:`matches`).
-PAPER_TABLE1_ROWS = {
-    "OperatorNet (Int+Ext)": _network(KINDS),
-    "OperatorNet (Int)": _network(("area", "conformal")),
-    "OperatorNet (Ext)": _network(("extrinsic",)),
-    "Nearest neighbour (Int+Ext)": dict(baseline="nearest_neighbour", channels=KINDS),
-    "OperatorNet (Comp)(Ext)": _network(("extrinsic",), "comp"),
-    "OperatorNet (Comp)(Int+Ext)": _network(KINDS, "comp"),
-    "FuncChar (Int+Ext)": dict(baseline="funcchar"),
-}
-#: The groups of the networks trained and tested on operators through computed maps (Table 1's "Comp" rows and the
-#: rows beside them, ``opnet.reproduce.COMP_HALF`` and ``COMP_THREE``): the README's headline leaves them out, as
-#: the paper's does.
-MAPPED_GROUPS = ("comp", "comp-half", "comp-three")
+#: they have (:func:`matches`), from the plan's entries (:data:`opnet.experiments.plan.PAPER_ROWS`).
+PAPER_TABLE1_ROWS = PAPER_ROWS
+#: The groups of the networks trained and tested on operators through computed maps (the plan's entries tested on
+#: ``comp``: Table 1's "Comp" rows and those beside them): the README's headline leaves them out, as the paper's does.
+MAPPED_GROUPS = tuple(
+    dict.fromkeys(e.spec.group for e in declare(BUDGETS["quick"]).entries if e.runs and e.tested_on == "comp")
+)
 _PAPER = PAPER_TABLE1_ROWS["OperatorNet (Int+Ext)"]  # the paper's network: Table 1's reference
 _OURS = dict(_PAPER, variant="ours")  # this project's variant, on the same input
 _NN = PAPER_TABLE1_ROWS["Nearest neighbour (Int+Ext)"]
-
-
-def row_channels(row: dict) -> tuple[str, ...]:
-    """The channel names of a row: its ``channels`` list, or the comma-joined string of older ``results.json``."""
-    return channel_names(row.get("channels") or ())
-
-
-def matches(row: dict, **fields) -> bool:
-    """Whether ``row`` has each of ``fields`` (``None``: the field is absent or ``None``); ``channels`` are compared
-    as sets of names (:func:`row_channels`).
-    """
-    for key, want in fields.items():
-        if key == "channels":
-            if set(row_channels(row)) != set(channel_names(want)):
-                return False
-        elif row.get(key) != want:
-            return False
-    return True
+#: The paper's ordering of its three networks' d_R on ``test``: Int+Ext < Ext < Int.
+_ORDER = ("OperatorNet (Int+Ext)", "OperatorNet (Ext)", "OperatorNet (Int)")
 
 
 def _legacy_fields() -> dict:
     """Method name → structured fields, for the rows of a ``results.json`` written before rows had them.
 
-    Older reproductions named each row by its display name alone, always from this fixed list; an exact lookup in
-    it (never a parse) gives those rows the fields of the runs and baselines they stand for.
+    Older reproductions named each row by its display name alone, the names of the plan's Table 1 entries; an exact
+    lookup by name (never a parse) gives those rows the fields of the runs and baselines they stand for.
     """
-    runs = {
-        "OperatorNet (Int+Ext)": RunSpec(KINDS, group="table1"),
-        "OperatorNet (Int)": RunSpec(("area", "conformal"), group="table1"),
-        "OperatorNet (Ext)": RunSpec(("extrinsic",), group="table1"),
-        "OperatorNet ours (Int+Ext)": RunSpec(KINDS, variant="ours", group="table1"),
-        "OperatorNet (Comp)(Int+Ext)": RunSpec(KINDS, group="comp"),
-        "OperatorNet (Comp)(Ext)": RunSpec(("extrinsic",), group="comp"),
-        "PointNet AE": RunSpec(architecture="pointnet", group="table1"),
-    }
-    fields = {name: spec.fields() for name, spec in runs.items()}
+    entries = [e for e in declare(BUDGETS["quick"]).entries if e.table == "table1" and e.refines is None]
+    fields = {e.name: e.run_fields() for e in entries if e.runs}
     no_channels = {k: v for k, v in fields["OperatorNet (Int+Ext)"].items() if k != "channels"}
     fields |= {f"{name} + refinement": dict(fields[name], refined=True) for name in list(fields)}
+    fields |= {e.name: dict(baseline=e.baseline) for e in entries if e.baseline is not None}
     fields |= {  # the applications' methods (their rows carry ``scheme``)
         "OperatorNet (mult.)": no_channels,
         "OperatorNet (linear)": no_channels,
         "OperatorNet (mult.) + refinement": dict(no_channels, refined=True),
         "OperatorNet ours (mult.)": {k: v for k, v in fields["OperatorNet ours (Int+Ext)"].items() if k != "channels"},
     }
-    baselines = {"Nearest neighbour (Int+Ext)", "Nearest neighbour"}
-    fields |= {name: dict(baseline="nearest_neighbour") for name in baselines}
-    return fields | {"Base shape": dict(baseline="base_shape"), "Geometric (A+E)": dict(baseline="geometric")}
+    return fields | {"Nearest neighbour": dict(baseline="nearest_neighbour")}
 
 
 def upgrade_rows(rows: list[dict]) -> list[dict]:
@@ -185,15 +139,24 @@ def _find(rows, split=None, **fields) -> dict | None:
     return next((r for r in rows if (split is None or r["split"] == split) and matches(r, **fields)), None)
 
 
+def ablation_columns(rows) -> list[str]:
+    """The ablation's columns: the paper's seven sets (:data:`~opnet.experiments.paper.PAPER_ABLATION_SETS`, in its
+    order), then every other set the rows hold (channels of one's own), in the order they come.
+    """
+    extra = [ablation_label(row_channels(r)) for r in rows if r.get("table") == "ablation"]
+    return list(dict.fromkeys([*PAPER_ABLATION_SETS, *extra]))
+
+
 def ablation_table(rows) -> np.ndarray:
     """The ablation's d_R ×10⁻⁴ on ``test`` as a ``(depths, sets)`` array (NaN where not trained yet): rows
-    ``PAPER_ABLATION_DEPTHS``, columns ``PAPER_ABLATION_SETS`` (the paper's grid, which the reproduction trains).
+    ``PAPER_ABLATION_DEPTHS``, columns :func:`~opnet.experiments.report.ablation_columns` (the paper's grid, then any
+    other set).
     """
-    table = np.full((len(PAPER_ABLATION_DEPTHS), len(PAPER_ABLATION_SETS)), np.nan)
+    columns = ablation_columns(rows)
+    table = np.full((len(PAPER_ABLATION_DEPTHS), len(columns)), np.nan)
     for r in rows:
-        if r.get("table") == "ablation":
-            names = row_channels(r)
-            column = next(i for i, v in enumerate(PAPER_ABLATION_SETS.values()) if set(v) == set(names))
+        if r.get("table") == "ablation" and r.get("depth") in PAPER_ABLATION_DEPTHS:
+            column = columns.index(ablation_label(row_channels(r)))
             table[PAPER_ABLATION_DEPTHS.index(r["depth"]), column] = 1e4 * r["d_R"]
     return table
 
@@ -248,8 +211,8 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
     if not earlier or earlier[1] is None:
         return rows, context
     old_rows, old = earlier
-    same = ("preset", "budget", "collection", "splits")
-    if any(old.get(key) != context.get(key) for key in same):
+    same = ("preset", "budget", "splits")
+    if any(old.get(key) != context.get(key) for key in same) or _shapes(old) != _shapes(context):
         import warnings
 
         warnings.warn(
@@ -269,6 +232,15 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
     summary = {key: old[key] for key in ("date", "machine", "wall_seconds") if key in old}
     summary["tables"] = sorted({str(r.get("table")) for r in kept})
     return merged, dict(context, earlier=[*old.get("earlier", []), summary])
+
+
+def _shapes(context: dict) -> str:
+    """What a context says of the collection's shapes: its repr without the channels it held (a call that adds a
+    channel, or a file written when the channels were called ``kinds``, holds the same shapes).
+    """
+    import re
+
+    return re.sub(r", (kinds|channels)=\([^)]*\)", "", str(context.get("collection")))
 
 
 def read_results(path) -> tuple[list[dict], dict | None]:
@@ -326,10 +298,11 @@ def results_sections(rows: list[dict], context: dict) -> dict[str, list[str]]:
     """
     rows = upgrade_rows(rows)
     t1 = [r for r in rows if r.get("table") == "table1"]
-    humans = _is_humans(context)
-    sections = {"context": context_markdown(context), "table1": table1_markdown(rows, paper=humans)}
-    sections |= {"targets": targets(t1, paper=humans), "ablation": ablation_markdown(rows, context["budget"], humans)}
-    other_meshes = discretisation_markdown(rows) if humans else []  # the humans' 2k and 5k meshes
+    p = _profile(context)
+    paper = p.paper_numbers
+    sections = {"context": context_markdown(context), "table1": table1_markdown(rows, paper=paper)}
+    sections |= {"targets": targets(t1, paper=paper), "ablation": ablation_markdown(rows, context["budget"], paper)}
+    other_meshes = discretisation_markdown(rows) if p.computed_maps else []  # its other triangulations
     sections |= {"discretisation": other_meshes, "applications": applications_markdown(rows, context)}
     return {name: lines for name, lines in sections.items() if lines}
 
@@ -355,16 +328,7 @@ def context_markdown(context: dict) -> list[str]:
         f"Training: Adam, lr {b['lr']}, batch {b['batch_size']}, {b['epochs']} epochs for Table 1's OperatorNets "
         f"({b.get('pointnet_epochs', b['epochs'])} for the PointNet AE) and {b['ablation_epochs']} for the ablation "
         "(fewer, to keep the 28-network grid affordable); model "
-        "selection on `val`. "
-        + (
-            "The paper's numbers are on DFAUST, ours on `anny` humans: the scale (metres) is alike, the data are "
-            "not the same."
-            if _is_humans(context)
-            else "The shapes: the animals of `opnet.data.animals` (Quaternius' quadrupeds on the horse's template, "
-            "species and blends between them; `test_subjects` holds held-out blends and the wolf, a species never "
-            'seen in training; "unseen species" is the wolf alone). The paper trains on SMAL animals but publishes '
-            "no numbers for them."
-        ),
+        "selection on `val`. " + _profile(context).context,
     ]
 
 
@@ -467,7 +431,7 @@ def ablation_markdown(rows: list[dict], budget: dict, paper: bool = True) -> lis
     table = ablation_table(rows)
     if not np.isfinite(table).any():
         return []
-    cols = list(PAPER_ABLATION_SETS)
+    cols = ablation_columns(rows)
     lines = [
         f"Each network trained {b['ablation_epochs']} epochs (Table 1's have {b['epochs']}).",
         "",
@@ -487,8 +451,9 @@ def ablation_markdown(rows: list[dict], budget: dict, paper: bool = True) -> lis
             "|---" * (len(cols) + 1) + "|",
         ]
         for d, vals in PAPER_ABLATION.items():
-            lines.append(f"| {_encoder(d)} | " + " | ".join(f"{v:g}" for v in vals) + " |")
-    done = table[:, -1]
+            cells = [*(f"{v:g}" for v in vals), *(["–"] * (len(cols) - len(vals)))]  # none for sets of one's own
+            lines.append(f"| {_encoder(d)} | " + " | ".join(cells) + " |")
+    done = table[:, cols.index("A+E+C")]
     t1 = [r for r in rows if r.get("table") == "table1"]
     nn = (_find(t1, "test", **_NN) or {}).get("d_R")
     if nn is not None and np.nanmin(table) > 0.5e4 * nn:
@@ -499,7 +464,7 @@ def ablation_markdown(rows: list[dict], budget: dict, paper: bool = True) -> lis
             "mostly noise: this table shows the pipeline, not the paper's trends. Use a larger preset.",
         ]
     if np.isfinite(table).all():
-        best_col = np.mean(np.argmin(table, axis=1) == len(cols) - 1)
+        best_col = np.mean(np.argmin(table, axis=1) == cols.index("A+E+C"))
         lines += [
             "",
             f"All three operators give the best column in {best_col:.0%} of the depths"
@@ -541,20 +506,19 @@ def discretisation_markdown(rows: list[dict]) -> list[str]:
         ]
         error = "–" if maps == "exact" else f"{100 * first['map_error']:.2f}"
         lines.append(f"| {res} | {maps} | {error} | " + " | ".join(cells) + " |")
-    exact = _find([r for r in disc if (r["resolution"], r["maps"]) == ("1k", "exact")], **_PAPER)
-    fine = [get[key] for key in get if key[:2] == ("5k", "computed")]
-    if exact is not None and fine:
-        lines += [
-            "",
-            f"**Target:** 5k → 1k through computed maps within 3× of OperatorNet (Int+Ext)'s error on the "
-            f"exact 1k operators of the same shapes ({_fmt(exact['d_R'], 1e4)}), for each network:",
-            "",
-        ]
-        lines += [
-            f"- {r['method']}: {_fmt(r['d_R'], 1e4)}, {r['d_R'] / exact['d_R']:.1f}×: "
-            f"{'met' if r['d_R'] <= 3 * exact['d_R'] else 'missed'}."
-            for r in fine
-        ]
+    for target in targets_of("discretisation"):
+        verdicts = judge(target, disc)
+        if verdicts:
+            lines += [
+                "",
+                f"**Target:** {target.label} within {target.threshold:g}× of OperatorNet (Int+Ext)'s error on the "
+                f"exact 1k operators of the same shapes ({_fmt(verdicts[0].denominator, 1e4)}), for each network:",
+                "",
+            ]
+            lines += [
+                f"- {v.row['method']}: {_fmt(v.numerator, 1e4)}, {v.value:.1f}×: {'met' if v.met else 'missed'}."
+                for v in verdicts
+            ]
     return lines
 
 
@@ -562,7 +526,8 @@ def applications_markdown(rows: list[dict], context: dict | None = None) -> list
     """The applications' section of ``results.md`` (lines, without its heading): the analogy and interpolation
     tables and their targets; ``context`` (the reproduction's) names the kinds for its data (humans by default).
     """
-    kind_names = _KIND_NAMES if _is_humans(context) else _ANIMAL_KIND_NAMES
+    p = _profile(context)
+    kind_names = dict(analogy=p.analogy_kinds, interpolation=p.interpolation_kinds)
     ana = [r for r in rows if r.get("table") == "analogy"]
     itp = [r for r in rows if r.get("table") == "interpolation"]
     if not ana and not itp:
@@ -609,61 +574,60 @@ def applications_markdown(rows: list[dict], context: dict | None = None) -> list
             f"smoothness: the largest step over the path length ({1 / (itp[0]['steps'] - 1):.2f} for even steps).",
         ]
     verdicts = []
+    measured = [v for t in targets_of("analogy") for v in judge(t, ana)]
     for kind in dict.fromkeys(r["kind"] for r in ana):
         part = [r for r in ana if r["kind"] == kind]
         ours = (_find(part, **_PAPER, scheme="multiplicative") or {}).get("d_R")
-        others = [_find(part, architecture="pointnet", refined=None), _find(part, baseline="nearest_neighbour")]
-        others = {r["method"]: r["d_R"] for r in others if r is not None}
-        if ours is not None and others:
-            met = all(v > ours for v in others.values())
-            ratios = ", ".join(f"{m} / OperatorNet = {v / ours:.2f}" for m, v in others.items())
+        mine = [v for v in measured if v.target.where["kind"] == kind]
+        if mine:
+            met = all(v.met for v in mine)
+            ratios = ", ".join(f"{v.row['method']} / OperatorNet = {v.value:.2f}" for v in mine)
             verdict = f" (target: OperatorNet (mult.) beats both at `default`): {'met' if met else 'missed'}."
-            verdicts.append(f"- analogy, {kind}: {ratios}" + (verdict if _is_humans(context) else "."))
+            verdicts.append(f"- analogy, {kind}: {ratios}" + (verdict if p.paper_numbers else "."))
         linear = (_find(part, **_PAPER, scheme="linear") or {}).get("d_R")
         if ours is not None and linear is not None:
             verdicts.append(
                 f"- analogy, {kind}: the linear algebra's d_R / the multiplicative one's = {linear / ours:.2f}."
             )
-    heading = "**Targets**" if _is_humans(context) else "**Ratios**"
+    heading = "**Targets**" if p.paper_numbers else "**Ratios**"
     return lines + (["", heading, ""] + verdicts if verdicts else [])
 
 
+def _verdict_line(v, paper: bool, scale: float = 1e4) -> str:
+    """One line of ``results.md``'s targets: the measure, its numbers and, with ``paper``, the target and the paper's
+    value.
+    """
+    t = v.target
+    where = _SPLIT_NAMES.get(t.where.get("split"), t.where.get("split", ""))
+    if t.denominator is None:
+        return f"- {where}: {t.label} {_fmt(v.value)} (target {'≥' if t.at_least else '≤'} {t.threshold:g}: " + (
+            f"{'met' if v.met else 'missed'})."
+        )
+    numbers = f"{_fmt(v.numerator, scale)} vs {_fmt(v.denominator, scale)} ×10⁻⁴"
+    if not paper:
+        return f"- {where}: {t.label} = {v.value:.3g} ({numbers})."
+    published = "" if t.paper is None else f", the paper {t.paper:.2g}"
+    sign = "≥" if t.at_least else "≤"
+    return (
+        f"- {where}: {t.label} = {v.value:.3g} ({numbers}; target {sign} {t.threshold:g} at `default`{published}): "
+        f"{'met' if v.met else 'missed'}."
+    )
+
+
 def targets(t1: list[dict], paper: bool = True) -> list[str]:
-    """The verdicts on Table 1's targets (lines of ``results.md``) from its rows ``t1``: NN against OperatorNet per
-    test set, d_V and d_E, the paper's network against ours, what refinement changes, the "Comp" networks against the
-    ground-truth maps, and the paper's ordering Int+Ext < Ext < Int. ``paper=False`` (data the paper gives no numbers
-    on, the animals): the same ratios, without targets or the paper's figures.
+    """The verdicts on Table 1's targets (lines of ``results.md``) from its rows ``t1``: each target of
+    :mod:`opnet.experiments.targets` on Table 1 (NN against OperatorNet per test set, d_V and d_E, the paper's network
+    against ours, the "Comp" networks against the ground-truth maps), what refinement changes, FuncChar against the
+    paper's, and the paper's ordering Int+Ext < Ext < Int. ``paper=False`` (data the paper gives no numbers on, the
+    animals): the ratios alone, without targets or the paper's figures.
     """
 
     def get(fields, split, key="d_R"):
         r = _find(t1, split, **fields)
         return None if r is None else r.get(key)
 
-    lines = []
-    for split in ("test", "test_subjects", "unseen_species", "eval_subset"):
-        ours, nn = get(_PAPER, split), get(_NN, split)
-        if ours is not None and nn is not None:
-            ratio = nn / ours
-            verdict = (
-                f"; target ≥ 10 at `default`, the paper 23): {'met' if ratio >= 10 else 'missed'}." if paper else ")."
-            )
-            lines.append(
-                f"- {_SPLIT_NAMES[split]}: NN's d_R / OperatorNet (Int+Ext)'s = {ratio:.3g} "
-                f"({_fmt(nn, 1e4)} vs {_fmt(ours, 1e4)} ×10⁻⁴{verdict}"
-            )
-    dv, de = get(_PAPER, "test", "d_V"), get(_PAPER, "test", "d_E")
-    if dv is not None and paper:
-        lines.append(
-            f"- test: d_V {_fmt(dv)} (target ≤ 0.014: {'met' if dv <= 0.014 else 'missed'}), "
-            f"d_E {_fmt(de)} (target ≤ 0.045: {'met' if de <= 0.045 else 'missed'})."
-        )
-    theirs, ours = get(_PAPER, "test"), get(_OURS, "test")
-    if theirs is not None and ours is not None:
-        verdict = f"; target ≥ 1.5 at `default`): {'met' if theirs / ours >= 1.5 else 'missed'}." if paper else ")."
-        lines.append(
-            f"- test: OperatorNet (Int+Ext)'s d_R / ours = {theirs / ours:.2f} ({_fmt(theirs, 1e4)} vs "
-            f"{_fmt(ours, 1e4)} ×10⁻⁴{verdict}"
-        )
+    shown = [t for t in targets_of("table1") if paper or t.denominator is not None]  # the ratios, without the paper
+    lines = [_verdict_line(v, paper) for t in shown for v in judge(t, t1)]
     for fields in (_PAPER, _OURS):
         net = _find(t1, **fields)
         refined = None if net is None else dict(run=net.get("run"), refined=True)
@@ -686,19 +650,7 @@ def targets(t1: list[dict], paper: bool = True) -> list[str]:
             f"({_fmt(funcchar['d_R'], 1e4)} on {funcchar['n_shapes']} shapes vs {_fmt(truth, 1e4)} ×10⁻⁴; the paper "
             f"{published:.3g}{other})."
         )
-    for comp_row in (r for r in t1 if paper and r["split"] == "test" and matches(r, group="comp", refined=None)):
-        channels = row_channels(comp_row)
-        comp, same = comp_row.get("d_R"), get(_network(channels), "test")
-        if comp is not None and truth is not None:
-            published = paper_table1(comp_row)
-            theirs = "–" if published is None else f"{published[0] / reference:.1f}"
-            alike = f"; {comp / same:.1f}× OperatorNet ({channel_label(channels)})'s" if same is not None else ""
-            lines.append(
-                f"- test: {comp_row['method']}'s d_R / OperatorNet (Int+Ext)'s (ground-truth maps) = "
-                f"{comp / truth:.1f} ({_fmt(comp, 1e4)} vs {_fmt(truth, 1e4)} ×10⁻⁴; target ≤ 5 at `default`, the "
-                f"paper {theirs}{alike}): {'met' if comp / truth <= 5 else 'missed'}."
-            )
-    order = [get(_network(c), "test") for c in (KINDS, ("extrinsic",), ("area", "conformal"))]
+    order = [get(PAPER_TABLE1_ROWS[name], "test") for name in _ORDER]
     if None not in order:
         holds = order[0] < order[1] < order[2]
         lines.append(

@@ -5,13 +5,25 @@ ablation over any channels (:func:`ablation`, :func:`opnet.ablation`).
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+
+import numpy as np
 
 from ..evaluate import evaluate, nearest_neighbour_method, operatornet_method, pointnet_method
 from .spec import RunSpec
 
-__all__ = ["Run", "Results", "train_run", "evaluate_runs", "ablation"]
+__all__ = [
+    "Run",
+    "Results",
+    "train_run",
+    "evaluate_runs",
+    "ablation",
+    "Outcome",
+    "Workspace",
+    "build_method",
+    "run_entries",
+]
 
 
 @dataclass(eq=False)
@@ -26,16 +38,14 @@ class Run:
     run_dir: Path | None
     info: dict = field(default_factory=dict)
 
-    def method(self, collection):
+    def method(self, collection, **fields):
         """The :class:`opnet.evaluate.Method` of this run's network on ``collection``, named by :attr:`RunSpec.label`,
-        its rows carrying the spec's fields and the run's info.
+        its rows carrying the spec's fields, the run's info and ``fields`` (e.g. ``table``).
         """
+        info = {**self.spec.fields(), **self.info, **fields}
         if self.spec.architecture == "pointnet":
-            m = pointnet_method(self.net, collection, self.spec.label)
-        else:
-            m = operatornet_method(self.net, collection, self.spec.label)
-        m.info = {**self.spec.fields(), **self.info}
-        return m
+            return pointnet_method(self.net, collection, self.spec.label, info=info)
+        return operatornet_method(self.net, collection, self.spec.label, info=info)
 
 
 class Results(list):
@@ -47,7 +57,7 @@ class Results(list):
         """``{channels label: {depth: value}}`` of ``metric`` (× ``scale``) for the rows of one split (default: the
         first one present), one entry per run; baselines (no depth) go under depth ``None``.
         """
-        from ..evaluate import channel_label
+        from ..inner_products import channel_label
 
         split = split or next((r["split"] for r in self), None)
         out: dict = {}
@@ -123,7 +133,7 @@ def ablation(
     Parameters
     ----------
     collection : a collection holding every channel asked for (add yours with
-        :meth:`~opnet.data.storage.Collection.with_kinds`).
+        :meth:`~opnet.data.storage.Collection.with_channels`).
     channel_sets : a list of channel sets (each a list of names or inner products, or a short name like ``"A+E"``).
     depths : encoder depths (1–4).
     epochs : training epochs of each network.
@@ -155,7 +165,134 @@ def ablation(
         for spec in specs:
             if spec.channel_names not in seen:
                 seen.append(spec.channel_names)
-                nn = nearest_neighbour_method(collection, spec.channels)
-                nn.info = dict(run=None, architecture=None, variant=None, channels=list(spec.channel_names), depth=None)
+                info = dict(run=None, architecture=None, variant=None, channels=list(spec.channel_names), depth=None)
+                nn = nearest_neighbour_method(collection, spec.channels, info=dict(info, baseline="nearest_neighbour"))
                 rows += evaluate(collection, [nn], test_sets)
     return rows
+
+
+# -- the plan ------------------------------------------------------------------------------------------------------
+
+
+@dataclass(eq=False)
+class Outcome:
+    """What one plan entry gave: the entry, its method, its trained runs (none for a baseline or a refinement) and
+    the collection it was tested on.
+    """
+
+    entry: object
+    method: object
+    runs: list
+    tested_on: object
+
+
+class Workspace:
+    """What the runner needs to run a plan's entries: the collection (and what is derived from it, built once when
+    first asked for, :meth:`data`), its profile, the run folders' root, the budget, the device, the progress bar.
+    """
+
+    def __init__(self, coll, profile, runs_root, budget, *, device="cpu", data_root=None, progress=None, bar=None):
+        self.coll, self.profile, self.runs_root, self.budget = coll, profile, Path(runs_root), budget
+        self.device, self.data_root, self.progress, self.bar = device, data_root, progress, bar
+        self._data: dict = {}
+
+    def data(self, key: str, draws: dict | None = None):
+        """The collection an entry trains or tests on (:data:`~opnet.experiments.plan.DATA`; ``draws``: the profile's
+        collection drawn with other bodies or poses, whose held-out shapes are checked to be the same).
+        """
+        ident = (key, tuple(sorted((draws or {}).items())))
+        if ident not in self._data:
+            self._data[ident] = self._build(key, draws or {})
+        return self._data[ident]
+
+    def _build(self, key, draws):
+        from ..data import half_mapped, mapped_collection, three_way_mapped
+        from .baselines import FUNCCHAR
+        from .plan import COMP_RESOLUTION
+
+        coll, root, progress = self.coll, self.data_root, self.progress
+        if draws:  # the same collection (preset, resolution, seed), its training shapes drawn otherwise
+            meta = coll.meta
+            where = {k: meta[k] for k in ("resolution", "seed") if k in meta}
+            more = self.profile.load(meta["preset"], root, progress, **where, **draws)
+            held = coll.split != "train"
+            if not (
+                np.array_equal(more.split, coll.split) and np.array_equal(more.vertices[held], coll.vertices[held])
+            ):
+                raise ValueError(f"the collection with {draws} does not hold {coll!r}'s held-out shapes.")
+            return more
+        if key == "base":
+            return coll
+        if key == "comp":
+            return mapped_collection(coll, COMP_RESOLUTION, "computed", root=root, progress=progress)
+        if key == "half":
+            return half_mapped(coll, self.data("comp"))
+        if key == "three":
+            return three_way_mapped(coll, self.data("comp"), "5k", root=root, progress=progress)
+        if key == "offsets":
+            return coll.with_channels([*dict.fromkeys([*coll.channels, *FUNCCHAR])], progress=False)
+        raise ValueError(f"unknown data {key!r}.")
+
+    def train(self, spec, collection):
+        """Train (or load, when finished) ``spec`` on ``collection`` in this workspace's runs folder."""
+        if self.bar is not None:
+            self.bar.set_postfix_str(spec.run_name)
+        return train_run(spec, collection, self.runs_root, device=self.device, progress=self.progress is True)
+
+
+def _untrained(device) -> dict:
+    """The fields of a row whose method trains nothing of its own: no epochs or training time, the device."""
+    return dict(epochs=None, train_seconds=None, device=str(device))
+
+
+def build_method(entry, ws: Workspace, done: dict) -> Outcome:
+    """The method of ``entry`` (training its networks in ``ws``, or loading them when trained), its rows' fields
+    given when it is built: ``table``, ``entry``, the run's or the baseline's fields, ``epochs``, ``train_seconds``,
+    ``device``. ``done``: the outcomes of the entries before it (key → :class:`Outcome`), for a refinement.
+    """
+    from ..evaluate import ensemble_method, refined_method
+    from .baselines import baseline_method, refine_options
+
+    tested = ws.data(entry.tested_on)
+    where = dict(table=entry.table, entry=entry.key)
+    if entry.baseline is not None:
+        method = baseline_method(entry.baseline, tested, ws.budget, ws.device)
+        info = {**where, **entry.run_fields(), **_untrained(ws.device)}
+        return Outcome(entry, replace(method, name=entry.name, info={**method.info, **info}), [], tested)
+    if entry.refines is not None:
+        if entry.refines not in done:
+            raise ValueError(f"entry {entry.key!r} refines {entry.refines!r}, which has not run before it.")
+        start = done[entry.refines]
+        fields = {k: v for k, v in start.entry.run_fields().items() if k != "channels"}
+        info = {**where, **fields, "refined": True, **_untrained(ws.device)}
+        options = refine_options(ws.budget, ws.device)
+        return Outcome(entry, refined_method(start.method, tested, name=entry.name, info=info, **options), [], tested)
+    trained_on = ws.data(entry.trained_on, entry.draws)
+    runs = [ws.train(s, trained_on) for s in entry.runs]
+    info = {**where, **entry.run_fields(), **runs[0].info}
+    if len(runs) == 1:
+        return Outcome(entry, runs[0].method(tested, **info), runs, tested)
+    info["train_seconds"] = round(sum(r.info["train_seconds"] for r in runs), 1)
+    method = ensemble_method([r.method(tested) for r in runs], entry.name, info=info)
+    return Outcome(entry, method, runs, tested)
+
+
+def run_entries(entries, ws: Workspace, *, extra: dict | None = None, done: dict | None = None, saved=None):
+    """Build each entry's method (:func:`build_method`) and evaluate it on its test sets into rows; returns the rows
+    and the outcomes (key → :class:`Outcome`). ``saved(rows)``: called after each entry with the rows so far (so an
+    interruption loses one entry's work at most).
+    """
+    from ..evaluate import test_sets_for
+
+    done = {} if done is None else done
+    rows = []
+    for entry in entries:
+        outcome = build_method(entry, ws, done)
+        done[entry.key] = outcome
+        test_sets = entry.test_sets or test_sets_for(outcome.tested_on)
+        rows += evaluate(outcome.tested_on, [outcome.method], test_sets, extra=extra)
+        if ws.bar is not None:
+            ws.bar.update(1)
+        if saved is not None:
+            saved(rows)
+    return rows, done

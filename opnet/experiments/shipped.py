@@ -10,45 +10,45 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..data.profiles import profile, reproducible
 from .report import read_results
 
-__all__ = ["SHIPPED_DIR", "COLLECTIONS", "shipped_presets", "shipped_results", "shipped_figure", "shipped_figures"]
+__all__ = ["SHIPPED_DIR", "shipped_presets", "shipped_results", "shipped_figure", "shipped_figures"]
 
 #: Where the shipped reproductions are: one folder per collection and preset (``default`` for the humans,
 #: ``animals-default`` for the animals), each with ``results.json`` and ``figures/``.
 SHIPPED_DIR = Path(__file__).resolve().parent / "results"
 
 
-#: The collections whose reproductions can ship (``python -m opnet reproduce --collection``).
-COLLECTIONS = ("humans", "animals")
-
-
 def _folder_name(preset: str, collection: str) -> str:
-    if collection not in COLLECTIONS:
-        raise ValueError(f"collection must be one of {COLLECTIONS}, got {collection!r}.")
+    if collection not in reproducible():
+        raise ValueError(f"collection must be one of {list(reproducible())}, got {collection!r}.")
     if not isinstance(preset, str) or "-" in preset:
         raise ValueError(
             f"preset must be a preset's name such as 'default', got {preset!r}; give the collection as "
             "collection=, e.g. shipped_results('default', 'animals')."
         )
-    return preset if collection == "humans" else f"{collection}-{preset}"
+    return profile(collection).folder(preset)
 
 
 def shipped_presets(collection: str = "humans") -> list[str]:
-    """The presets whose reproduction of ``collection`` (``"humans"`` or ``"animals"``) is shipped."""
+    """The presets whose reproduction of ``collection`` (a reproducible profile: ``"humans"``, ``"animals"``) is
+    shipped.
+    """
     _folder_name("default", collection)  # refuses an unknown collection
+    prefix = profile(collection).folder_prefix
     if not SHIPPED_DIR.is_dir():
         return []
     shipped = (p.name for p in SHIPPED_DIR.iterdir() if (p / "results.json").is_file())
-    if collection == "humans":
-        return sorted(name for name in shipped if "-" not in name)
-    return sorted(name.removeprefix(f"{collection}-") for name in shipped if name.startswith(f"{collection}-"))
+    return sorted(
+        name.removeprefix(prefix) for name in shipped if name.startswith(prefix) and "-" not in name[len(prefix) :]
+    )
 
 
 def _folder(preset: str, collection: str) -> Path:
     folder = SHIPPED_DIR / _folder_name(preset, collection)
     if not (folder / "results.json").is_file():
-        other = "" if collection == "humans" else f" --collection {collection}"
+        other = f" --collection {collection}" if profile(collection).folder_prefix else ""
         raise FileNotFoundError(
             f"no shipped reproduction of the {collection} for preset {preset!r} (shipped: "
             f"{shipped_presets(collection) or 'none'}); run `python -m opnet reproduce --preset {preset}{other} "

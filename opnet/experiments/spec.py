@@ -10,9 +10,15 @@ from dataclasses import dataclass, field
 from numbers import Real
 from pathlib import Path
 
-from ..data.channels import split_channels
-from ..evaluate import channel_label, channel_names
-from ..inner_products import INNER_PRODUCTS, channel_digest, get_inner_product, known_inner_products
+from ..inner_products import (
+    INNER_PRODUCTS,
+    channel_digest,
+    channel_label,
+    channel_names,
+    get_inner_product,
+    known_inner_products,
+    split_channels,
+)
 from ..shape_difference import CHANNEL_SETS, KINDS
 
 __all__ = ["RunSpec", "VARIANTS", "ARCHITECTURES"]

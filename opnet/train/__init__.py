@@ -24,9 +24,10 @@ import dataclasses
 import torch
 from tqdm.auto import tqdm
 
+from ..devices import resolve_device
 from ..model import rigid_alignment_loss
 from ..shape_difference import CHANNEL_SETS
-from .config import SCHEDULES, TrainConfig, parse_channels, resolve_device
+from .config import SCHEDULES, TrainConfig, parse_channels
 from .loop import TrainingError, adam, placement, run_epochs
 from .network import build_network, training_data
 from .rundir import (
@@ -94,8 +95,8 @@ def fit(
     collection : opnet.data.Collection
         Shapes with their operators (``"train"`` and ``"val"`` splits are used; the test splits never).
     channels : channels or str, optional
-        Input operators: any of the collection's channels (:attr:`~opnet.data.storage.Collection.kinds`), as
-        names, inner products (your own: add it first with :meth:`~opnet.data.storage.Collection.with_kinds`),
+        Input operators: any of the collection's channels (:attr:`~opnet.data.storage.Collection.channels`), as
+        names, inner products (your own: add it first with :meth:`~opnet.data.storage.Collection.with_channels`),
         ``"area,extrinsic"`` or a short name of :data:`opnet.CHANNEL_SETS` (``"A+E+C"``, ``"Ext"``, ...). Default:
         all of the collection's. The run records each channel's name and implementation digest; resuming it with
         another implementation is refused.
@@ -127,14 +128,13 @@ def fit(
         It is a function of the step and the planned number of epochs, so a ``"onecycle"`` run resumes only with
         the same ``epochs``.
     standardize, residual : override the variant's network options one by one (see :class:`opnet.OperatorNet`),
-        e.g. to measure each part of ``"ours"`` alone (``benchmarks/variants.py``).
+        e.g. to measure each part of ``"ours"`` alone.
     architecture : ``"operatornet"`` (default) or ``"pointnet"``: the PointNet autoencoder
         (:class:`opnet.model.PointNetAutoencoder`), which reads the shapes' coordinates instead of their operators
         and is trained with the same loss, checkpoints and resume (``channels``, ``depth`` and the variant's
         options do not apply to it; ``hidden`` and ``schedule`` do).
     n_points : how many vertices the PointNet encoder reads (spread over the base shape by
-        :meth:`~opnet.model.PointNetAutoencoder.choose_points`); default 256 for ``architecture="pointnet"``
-        (``benchmarks/pointnet.py`` measures the choice: as accurate as all the vertices, 5× faster).
+        :meth:`~opnet.model.PointNetAutoencoder.choose_points`); default 256 for ``architecture="pointnet"``.
     checkpoint_every : seconds between the checkpoints written to ``run_dir`` (``latest.pt`` with ``best.pt``
         and ``history.json``); the last epoch is always written, and ``0`` writes every epoch. A run killed in
         between resumes from its last checkpoint and replays the epochs after it to the same result (each epoch's

@@ -11,14 +11,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-import torch
-
+from .. import options as cli_options
 from .._checks import check_int, check_number
-from ..data.channels import split_channels
-from ..inner_products import get_inner_product
+from ..devices import resolve_device  # re-exported: opnet.train.config.resolve_device as before
+from ..inner_products import get_inner_product, split_channels
 from ..model import ARCHITECTURES, VARIANTS
+from ..options import option
 from ..shape_difference import CHANNEL_SETS, KINDS
 
 __all__ = [
@@ -80,19 +80,6 @@ def parse_channels(channels, collection=None) -> tuple[str, ...]:
     return channels
 
 
-def resolve_device(device="auto") -> torch.device:
-    """``"auto"`` → CUDA when available, else the CPU; anything else is passed to :class:`torch.device`."""
-    if device == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    try:
-        device = torch.device(device)
-    except (RuntimeError, TypeError):
-        raise ValueError(f"device must be 'auto', 'cpu', 'cuda' or 'cuda:N', got {device!r}.") from None
-    if device.type == "cuda" and not torch.cuda.is_available():
-        raise ValueError("device='cuda' was asked for but torch sees no CUDA GPU; use device='auto' or 'cpu'.")
-    return device
-
-
 _VARIANT_HELP = (
     "paper: the paper's network; ours: standardised inputs, a displacement from the base and a one-cycle learning "
     "rate (docs/results.md, 'Our variant')"
@@ -101,11 +88,6 @@ _ARCHITECTURE_HELP = (
     "operatornet (default), or pointnet: the PointNet autoencoder baseline, which reads the coordinates (same "
     "decoder, loss and checkpoints; --channels/--variant do not apply)"
 )
-
-
-def _option(default, help: str, *, flag: str | None = None, type=None, choices=None, cli: bool = True):
-    """A field of :class:`TrainConfig` with its command-line option described in its metadata."""
-    return field(default=default, metadata=dict(help=help, flag=flag, type=type, choices=choices, cli=cli))
 
 
 @dataclass(frozen=True)
@@ -151,37 +133,37 @@ class TrainConfig:
         Seconds between a run directory's checkpoints (the last epoch is always written); not a setting of the run.
     """
 
-    channels: object = _option(
+    channels: object = option(
         None,
         "input operators, comma-separated: built-in (area, conformal, extrinsic), registered, or your own "
         "inner product as package.module:Class (imported, and added to the collection, cached beside it); or a "
         "short name (A+E+C, Area, Ext, Conf, A+E, A+C, E+C); default all of the collection's (OperatorNet only)",
     )
-    depth: int = _option(1, "convolution layers in OperatorNet's encoder (1)", type=int, choices=DEPTHS)
-    epochs: int = _option(50, "passes over the training split (50); more continues a run", type=positive_int)
-    batch_size: int = _option(32, "shapes per step, global across processes (32)", type=positive_int)
-    lr: float = _option(1e-3, "Adam learning rate (1e-3)", type=float)
-    operator_noise: float = _option(
+    depth: int = option(1, "convolution layers in OperatorNet's encoder (1)", type=int, choices=DEPTHS)
+    epochs: int = option(50, "passes over the training split (50); more continues a run", type=positive_int)
+    batch_size: int = option(32, "shapes per step, global across processes (32)", type=positive_int)
+    lr: float = option(1e-3, "Adam learning rate (1e-3)", type=float)
+    operator_noise: float = option(
         0.0,
         "Gaussian noise on the training operators, in units of each entry's standard deviation over the training "
         "set (meant to model a computed map's error); 0, the default, is none",
         type=float,
     )
-    seed: int = _option(0, "initialisation and shuffling seed (0)", type=int)
-    hidden: int = _option(1024, "width of the two hidden dense layers (1024)", type=positive_int)
-    subtract_identity: bool = _option(True, "feed the network D instead of D - I (the default subtracts the identity)")
-    variant: str = _option("paper", _VARIANT_HELP, choices=tuple(VARIANTS))
-    schedule: str | None = _option(
+    seed: int = option(0, "initialisation and shuffling seed (0)", type=int)
+    hidden: int = option(1024, "width of the two hidden dense layers (1024)", type=positive_int)
+    subtract_identity: bool = option(True, "feed the network D instead of D - I (the default subtracts the identity)")
+    variant: str = option("paper", _VARIANT_HELP, choices=tuple(VARIANTS))
+    schedule: str | None = option(
         None, "learning rate over the run (default: constant for paper, onecycle for ours)", choices=SCHEDULES
     )
-    standardize: bool | None = _option(None, "override the variant's input standardisation", cli=False)
-    residual: bool | None = _option(None, "override the variant's displacement from the base", cli=False)
-    architecture: str = _option("operatornet", _ARCHITECTURE_HELP, choices=tuple(ARCHITECTURES))
-    n_points: int | None = _option(
+    standardize: bool | None = option(None, "override the variant's input standardisation", cli=False)
+    residual: bool | None = option(None, "override the variant's displacement from the base", cli=False)
+    architecture: str = option("operatornet", _ARCHITECTURE_HELP, choices=tuple(ARCHITECTURES))
+    n_points: int | None = option(
         None, "pointnet: vertices the encoder reads (256)", flag="--points", type=positive_int
     )
-    device: str = _option("auto", "auto (CUDA if present), cpu, cuda, cuda:N")
-    checkpoint_every: float = _option(
+    device: str = option("auto", "auto (CUDA if present), cpu, cuda, cuda:N")
+    checkpoint_every: float = option(
         30.0, "seconds between checkpoints of a run directory (30); its last epoch is always written", type=float
     )
 
@@ -262,22 +244,11 @@ class TrainConfig:
         """
         if self.pointnet:
             return ()
-        return collection.channel_names(collection.kinds if self.channels is None else self.channels)
+        return collection.channel_names(collection.channels if self.channels is None else self.channels)
 
     def as_kwargs(self) -> dict:
         """The fields as keyword arguments of :func:`opnet.train.fit` (values as they are, not copied)."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
-
-
-def _cli_fields():
-    return [f for f in dataclasses.fields(TrainConfig) if f.metadata["cli"]]
-
-
-def _flag(f: dataclasses.Field) -> str:
-    if f.metadata["flag"]:
-        return f.metadata["flag"]
-    name = f.name.replace("_", "-")
-    return f"--no-{name}" if f.default is True else f"--{name}"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -289,19 +260,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         The ``train`` sub-command's parser. Each option stores into the field's name, with the field's default;
         a ``bool`` field whose default is ``True`` becomes ``--no-<name>`` (``store_false``).
     """
-    for f in _cli_fields():
-        meta = f.metadata
-        if f.default is True:
-            parser.add_argument(_flag(f), dest=f.name, action="store_false", help=meta["help"])
-            continue
-        options = dict(dest=f.name, default=f.default, help=meta["help"])
-        if meta["flag"] and meta["choices"] is None:  # shown as the flag says, not as the field's name
-            options["metavar"] = meta["flag"].lstrip("-").replace("-", "_").upper()
-        if meta["type"] is not None:
-            options["type"] = meta["type"]
-        if meta["choices"] is not None:
-            options["choices"] = list(meta["choices"])
-        parser.add_argument(_flag(f), **options)
+    cli_options.add_arguments(parser, TrainConfig)
 
 
 def config_from_args(args: argparse.Namespace, **overrides) -> TrainConfig:
@@ -319,4 +278,4 @@ def config_from_args(args: argparse.Namespace, **overrides) -> TrainConfig:
     TrainConfig
         Checked as any other (a ``ValueError`` with :func:`opnet.train.fit`'s message for a bad value).
     """
-    return TrainConfig(**{**{f.name: getattr(args, f.name) for f in _cli_fields()}, **overrides})
+    return cli_options.config_from_args(TrainConfig, args, **overrides)

@@ -17,8 +17,8 @@ from typing import NamedTuple
 import numpy as np
 import torch
 
+from ..devices import resolve_device
 from ..model import rigid_alignment_loss
-from .config import resolve_device
 from .rundir import RunState
 
 __all__ = ["TrainingError", "Placement", "placement", "run_epochs"]
@@ -108,9 +108,8 @@ def _diverged(epoch, what, run, lr):
 
 def adam(parameters, lr: float) -> torch.optim.Adam:
     """Adam with torch's fused kernel where this torch has one for the parameters' device (the CPU since torch
-    2.4, CUDA): the same update as the default implementation, up to rounding, and a training step of OperatorNet's
-    12 million parameters 1.5–2× as fast on a 2-core CPU (``benchmarks/training.py`` measures it beside the default);
-    torch's default implementation elsewhere.
+    2.4, CUDA): the same update as the default implementation, up to rounding, and faster; torch's default
+    implementation elsewhere.
     """
     parameters = list(parameters)
     try:

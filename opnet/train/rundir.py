@@ -37,10 +37,10 @@ import numpy as np
 import torch
 
 from .._files import atomic_write, remove_stale_tmp
-from ..inner_products import channel_digest, get_inner_product
+from ..devices import resolve_device
+from ..inner_products import channel_digest, get_inner_product, split_channels
 from ..model import OperatorNet, build_model
 from ..shape_difference import KINDS
-from .config import resolve_device
 
 __all__ = [
     "RunDir",
@@ -119,10 +119,10 @@ def _data_config(collection, channels, version: int = FINGERPRINT_VERSION) -> di
     """
     meta = collection.meta
     if version == 1:
-        if not set(KINDS) <= set(collection.kinds):
+        if not set(KINDS) <= set(collection.channels):
             raise CheckpointError(
                 f"this run was trained before channels were recorded, on a collection of the operators {KINDS}; "
-                f"load it with a collection that holds them (collection.with_kinds({list(KINDS)}))."
+                f"load it with a collection that holds them (collection.with_channels({list(KINDS)}))."
             )
         fingerprint = collection_fingerprint(collection, KINDS)
     else:
@@ -343,8 +343,6 @@ def _check_channels(config: dict, channels, path) -> None:
     """Refuse ``channels`` (names or inner products) other than a run's, or an inner product whose implementation
     differs from the one the run was trained with.
     """
-    from ..data.channels import split_channels
-
     items = [c if isinstance(c, str) and ":" not in c else get_inner_product(c) for c in split_channels(channels)]
     names = tuple(c if isinstance(c, str) else c.name for c in items)
     saved = _run_channels(config)

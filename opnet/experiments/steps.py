@@ -1,0 +1,166 @@
+"""The steps of the plan that are not one method each: the test shapes given on other triangulations
+(:func:`discretisation_rows`) and the ground-truth analogy and interpolation benchmarks (:func:`application_methods`,
+:func:`applications_rows`), and the refinement curves the figures draw.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .._checks import check_int
+from ..evaluate import evaluate, evenly_spaced, operatornet_method, test_set_indices
+from .baselines import REFINE
+from .figures import application_figures, discretisation_figure
+from .figures import refinement_curves as _curves
+
+__all__ = [
+    "DISCRETISATIONS",
+    "discretisation_indices",
+    "discretisation_rows",
+    "application_methods",
+    "applications_rows",
+    "refinement_curves",
+]
+
+#: The different-discretisation rows: test shapes on these meshes, mapped onto the 1k base by these maps.
+DISCRETISATIONS = (("2k", "true"), ("2k", "computed"), ("5k", "true"), ("5k", "computed"))
+
+
+def discretisation_indices(coll, budget) -> np.ndarray:
+    """The ``test`` shapes of :func:`discretisation_rows`: at most ``budget.discretisation_shapes``, evenly spaced."""
+    check_int("budget.discretisation_shapes", budget.discretisation_shapes)
+    return evenly_spaced(test_set_indices(coll, "test"), budget.discretisation_shapes)
+
+
+def _maps_of(mapped, coll, resolution: str, maps: str, k: int) -> bool:
+    """Whether ``mapped`` is ``mapped_collection(coll, resolution, maps, k=k)`` (all of ``coll``'s shapes)."""
+    meta, params = mapped.meta, mapped.params
+    same_maps = (meta.get("map_resolution"), meta.get("maps"), meta.get("map_k")) == (resolution, maps, k)
+    return (
+        same_maps
+        and len(mapped) == len(coll)
+        and all(np.array_equal(params.get(key), coll.params.get(key)) for key in ("phenotypes", "controls"))
+    )
+
+
+def discretisation_rows(
+    coll,
+    nets: dict,
+    budget,
+    *,
+    fields: dict | None = None,
+    comp=None,
+    data_root=None,
+    progress=None,
+    out=None,
+    shown=(),
+    extra: dict | None = None,
+) -> list[dict]:
+    """Reconstructions of test shapes given on other triangulations: rows with ``"table"`` ``"discretisation"``.
+
+    At most ``budget.discretisation_shapes`` shapes of ``test`` (evenly spaced, :func:`discretisation_indices`) are
+    generated on each mesh of :data:`~opnet.experiments.steps.DISCRETISATIONS` and mapped onto the base by the true or
+    the computed map (:func:`opnet.data.mapped_collection`), and, as a reference, taken with their exact 1k operators
+    (``resolution`` ``"1k"``, ``maps`` ``"exact"``). Every network of ``nets`` (name → network, or → its
+    :class:`~opnet.experiments.runner.Run`, whose spec's fields its rows then carry) decodes every encoding; d_R, d_V,
+    d_E against the generator's 1k shapes. Rows also hold ``resolution``, ``maps`` and ``map_error`` (metres,
+    mean over the shapes; 0 for the true map) and ``fields[name]`` (a network's run fields: ``run``, ``architecture``,
+    ``variant``, ``group``...). ``comp``: the collection through the 2k computed maps, whose maps are reused. With
+    ``out``, writes ``discretisation.png`` there (:func:`discretisation_figure` of three 5k shapes, by the networks
+    named in ``shown``, default all).
+    """
+    from ..data import mapped_collection
+    from ..data.mapped import MAP_K
+
+    idx = discretisation_indices(coll, budget)
+    encodings = {("1k", "exact"): coll.subset(idx)}
+    for res, maps in DISCRETISATIONS:
+        if comp is not None and _maps_of(comp, coll, res, maps, MAP_K):
+            encodings[res, maps] = comp.subset(idx)
+        else:
+            encodings[res, maps] = mapped_collection(coll, res, maps, indices=idx, root=data_root, progress=progress)
+    runs = {name: n for name, n in nets.items() if hasattr(n, "spec") and hasattr(n, "net")}
+    fields = {**{name: run.spec.fields() for name, run in runs.items()}, **(fields or {})}
+    nets = {name: runs[name].net if name in runs else net for name, net in nets.items()}
+    rows = []
+    for (res, maps), c in encodings.items():
+        error = float(np.mean(c.params["map_error"])) if "map_error" in c.params else 0.0
+        where = dict(table="discretisation", resolution=res, maps=maps, map_error=error)
+        methods = [
+            operatornet_method(net, c, name, info={**fields.get(name, {}), **where}) for name, net in nets.items()
+        ]
+        rows += evaluate(c, methods, ("test",), extra=extra)
+    if out is not None:
+        picked = {name: nets[name] for name in shown if name in nets} or nets
+        plotter = discretisation_figure(encodings["5k", "computed"], picked)
+        Path(out).mkdir(parents=True, exist_ok=True)
+        plotter.screenshot(str(Path(out) / "discretisation.png"))
+        plotter.close()
+    return rows
+
+
+def application_methods(coll, runs: dict, budget, *, refine: bool = True, device="cpu") -> list:
+    """The applications' methods (:class:`opnet.apps.ShapeAlgebra`): the paper's OperatorNet (Int+Ext) with the
+    multiplicative and the linear algebra, our variant, the first + refinement
+    (:data:`~opnet.experiments.baselines.REFINE`, at most ``budget.apps_refine_shapes`` shapes per kind), the PointNet
+    AE and NN. ``runs``: the plan's entry keys (``"int+ext"``, ``"ours"``, ``"pointnet"``) → their
+    :class:`~opnet.experiments.runner.Run`. Each method carries its run's structured fields and the plan's ``entry``
+    (:attr:`opnet.apps.ShapeAlgebra.fields`; ``refined`` for the refined one), NN ``baseline`` ``"nearest_neighbour"``.
+    """
+    from .. import apps
+
+    paper, ours, pointnet = (runs[key] for key in ("int+ext", "ours", "pointnet"))
+    fields = dict(paper.spec.fields(), entry="int+ext")
+    methods = [
+        apps.operatornet_algebra(paper.net, coll, fields=fields),
+        apps.operatornet_algebra(paper.net, coll, scheme="linear", fields=fields),
+        apps.operatornet_algebra(
+            ours.net, coll, name="OperatorNet ours (mult.)", fields=dict(ours.spec.fields(), entry="ours")
+        ),
+    ]
+    if refine:
+        methods.append(
+            apps.operatornet_algebra(
+                paper.net,
+                coll,
+                refine=dict(REFINE, steps=budget.refine_steps, device=device),
+                max_shapes=budget.apps_refine_shapes,
+                fields=dict(paper.spec.refined_fields(), entry="int+ext+refined"),
+            )
+        )
+    methods += [
+        apps.pointnet_algebra(pointnet.net, coll, fields=dict(pointnet.spec.fields(), entry="pointnet")),
+        apps.nearest_neighbour_algebra(coll, fields=dict(baseline="nearest_neighbour", entry="nn")),
+    ]
+    return methods
+
+
+def applications_rows(coll, methods, budget, *, out=None, progress=None, seed: int = 0) -> list[dict]:
+    """Run the ground-truth analogy (``budget.analogies`` questions per kind) and interpolation (``budget.paths``
+    paths of 11 steps per kind) benchmarks of :mod:`opnet.apps`; rows get ``table`` ``"analogy"`` or
+    ``"interpolation"`` and their method's fields (:func:`application_methods`). With ``out``, also writes
+    ``interpolation_<kind>.png`` and ``analogy_<kind>.png`` there.
+    """
+    from .. import apps
+
+    quads = [apps.analogy_quadruples(coll, kind, budget.analogies, seed=seed) for kind in apps.ANALOGY_KINDS]
+    paths = [apps.interpolation_paths(coll, kind, budget.paths, seed=seed) for kind in apps.PATH_KINDS]
+    rows = [dict(r, table="analogy") for r in apps.analogy_benchmark(coll, methods, quads, progress=progress)]
+    rows += [
+        dict(r, table="interpolation") for r in apps.interpolation_benchmark(coll, methods, paths, progress=progress)
+    ]
+    if out is not None:
+        application_figures(Path(out), coll, methods, quads, paths)
+    return [dict(r, preset=coll.meta.get("preset")) for r in rows]
+
+
+def refinement_curves(coll, idx, inits: dict, steps: int, snapshot_steps=(), *, device="cpu") -> tuple[dict, dict]:
+    """Run :func:`opnet.reconstruct` (settings :data:`~opnet.experiments.baselines.REFINE`) on shapes ``idx`` from each
+    start in ``inits`` (name → ``"base"`` or vertices ``(len(idx), n, 3)``), recording after every step the mean
+    relative operator mismatch and the mean ``d_R``. Returns ``curves`` (name → ``step``, ``mismatch``, ``d_R`` lists,
+    for :func:`opnet.plotting.plot_refinement_curves`) and ``snapshots`` (name → step → vertices of the first shape):
+    ``opnet.experiments.figures.refinement_curves`` with the reproduction's :data:`~opnet.experiments.baselines.REFINE`.
+    """
+    return _curves(coll, idx, inits, steps, snapshot_steps, device=device, **REFINE)

@@ -1,0 +1,261 @@
+"""The experiment layer: the plan's entries and their selection, the targets as records, the rows' fields, baselines
+and collection profiles registered by a test, a channel of one's own in the reproduction's ablation, and the configs
+that generate the commands' options."""
+
+import dataclasses
+import json
+import sys
+
+import numpy as np
+import pytest
+
+import opnet
+from opnet import reproduce
+from opnet.__main__ import _parser, main
+from opnet.experiments import baselines, config, plan, report, targets
+
+BUDGET = plan.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, refine_steps=3, refine_shapes=3)
+
+HALF_AREA_SOURCE = '''
+import opnet
+
+
+class HalfArea(opnet.inner_products.AreaInnerProduct):
+    """Half the area inner product: another channel, of one's own."""
+
+    name = "half area"
+
+    def project(self, vertices, faces, evecs):
+        return 0.5 * super().project(vertices, faces, evecs)
+
+    def project_batch(self, vertices, faces, evecs):
+        return 0.5 * super().project_batch(vertices, faces, evecs)
+'''
+
+
+@pytest.fixture
+def half_area(tmp_path, monkeypatch):
+    """``"half_area_ip:HalfArea"``, importable for this test."""
+    (tmp_path / "half_area_ip.py").write_text(HALF_AREA_SOURCE)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    yield "half_area_ip:HalfArea"
+    sys.modules.pop("half_area_ip", None)
+
+
+@pytest.fixture
+def capsules(monkeypatch, tiny_collection):
+    """A collection of the test's own, registered as the profile ``capsules`` (no generator: no applications)."""
+    coll = tiny_collection("capsules")
+    p = opnet.data.Profile("capsules", load=lambda preset, root=None, progress=None, **draws: coll)
+    monkeypatch.setitem(opnet.data.PROFILES, "capsules", p)
+    return coll
+
+
+# -- the plan ------------------------------------------------------------------------------------------------------
+
+
+def test_every_entry_is_declared_once_with_a_stable_key():
+    declared = plan.declare(BUDGET)
+    keys = declared.keys()
+    assert len(keys) == len(set(keys)) and len(declared) == len(keys) + len(declared.steps)
+    assert {"int+ext", "int", "ext", "ours", "pointnet", "nn", "base-shape", "geometric", "funcchar"} <= set(keys)
+    assert plan.declare(BUDGET).keys() == keys  # the same plan twice
+    for e in declared.entries:
+        if e.refines is not None:  # a refinement follows what it refines
+            assert keys.index(e.refines) < keys.index(e.key)
+    # the paper's rows are declared by the entries that stand beside them: one name each
+    assert set(plan.PAPER_ROWS) == set(opnet.experiments.PAPER_TABLE1)
+    assert report.PAPER_TABLE1_ROWS is plan.PAPER_ROWS
+
+
+def test_the_presets_are_listed_once_each_with_its_budget():
+    pytest.importorskip("torch")  # the command line's parser reads TrainConfig (the net extra)
+    assert plan.PRESETS == tuple(opnet.data.generators.PRESETS) and set(plan.BUDGETS) == set(plan.PRESETS)
+    assert _parser().parse_args(["train", "--run-dir", "r", "--preset", "paper"]).preset == "paper"
+    with pytest.raises(SystemExit):
+        _parser().parse_args(["reproduce", "--preset", "huge"])
+
+
+def test_selecting_parts_keeps_their_entries_and_drops_orphan_refinements():
+    declared = plan.declare(BUDGET)
+    only = plan.select(declared, ())
+    assert {e.part for e in only.entries} == {"table1"} and not only.steps
+    refine = plan.select(declared, ("refine",))  # the refinements of the bodies' networks need the bodies part
+    assert "bodies-shape+refined" not in refine and "int+ext+refined" in refine
+    assert "bodies-shape+refined" in plan.select(declared, ("refine", "bodies"))
+    with pytest.raises(ValueError, match="unknown parts"):
+        plan.select(declared, ("tables",))
+    with pytest.raises(KeyError, match="no entry 'nope'"):
+        declared["nope"]
+
+
+def test_an_entry_is_a_network_a_baseline_or_a_refinement():
+    spec = plan.spec("table1", BUDGET)
+    with pytest.raises(ValueError, match="exactly one of"):
+        plan.Entry("both", "both", spec, baseline="nearest_neighbour")
+    with pytest.raises(ValueError, match="exactly one of"):
+        plan.Entry("none", "none")
+    with pytest.raises(ValueError, match="part must be one of"):
+        plan.Entry("x", "x", spec, part="tables")
+    with pytest.raises(ValueError, match="trained_on must be one of"):
+        plan.Entry("x", "x", spec, trained_on="5k")
+    assert plan.Entry("x", "x", spec, trained_on="half").tested_on == "comp"  # tested like the Comp networks
+    ensemble = plan.declare(BUDGET)["bodies-shape-poses-quarter"]
+    assert ensemble.run_fields()["run"] == "+".join(s.run_name for s in ensemble.runs) and len(ensemble.runs) == 2
+
+
+def test_the_config_decides_the_parts_from_the_profile():
+    humans = config.ReproduceConfig()
+    assert humans.parts() == plan.PARTS  # every part applies to the humans
+    animals = config.ReproduceConfig(collection="animals")
+    assert "maps" not in animals.parts() and "bodies" not in animals.parts() and "applications" in animals.parts()
+    assert "ablation" not in config.ReproduceConfig(ablation=False).parts()
+    with pytest.raises(ValueError, match="--no-maps"):
+        config.ReproduceConfig(collection="animals", maps=True)
+    with pytest.raises(ValueError, match="unknown preset"):
+        config.ReproduceConfig(preset="huge")
+    with pytest.raises(ValueError, match="unknown collection 'cats'"):
+        config.ReproduceConfig(collection="cats")
+    with pytest.raises(TypeError, match="sequence of channel sets"):
+        config.ReproduceConfig(ablation_channels="area,extrinsic")
+    with pytest.raises(ValueError, match="the module 'nowhere_pkg' does not import"):  # refused before any training
+        config.ReproduceConfig(ablation_channels=("area,nowhere_pkg:MyIP",))
+    with pytest.raises(ValueError, match="reproducible=False"):
+        config.ReproduceConfig(collection="heads")
+
+
+def test_the_commands_options_are_the_configs_fields():
+    pytest.importorskip("torch")  # the command line's parser reads TrainConfig (the net extra)
+    args = _parser().parse_args(
+        ["reproduce", "--no-maps", "--ablation-channels", "area,offset_area", "--ablation-channels", "Ext"]
+    )
+    made = opnet.options.config_from_args(config.ReproduceConfig, args)
+    assert made.maps is False and made.bodies is None and made.ablation_channels == ("area,offset_area", "Ext")
+    every = {f.name for f in dataclasses.fields(config.ReproduceConfig) if f.metadata["cli"]}
+    assert every <= set(vars(args))  # each field with a flag is an option
+    assert (
+        opnet.options.config_from_args(config.ReproduceConfig, _parser().parse_args(["reproduce"]))
+        == config.ReproduceConfig()
+    )
+    evaluate = _parser().parse_args(["evaluate", "--run-dir", "r"])
+    assert opnet.options.config_from_args(config.EvaluateConfig, evaluate).run_dir == "r"
+    with pytest.raises(SystemExit):  # --run-dir is required
+        _parser().parse_args(["evaluate"])
+
+
+# -- targets -------------------------------------------------------------------------------------------------------
+
+
+def _row(split="test", d_R=1e-4, **fields):
+    return dict(table="table1", split=split, d_R=d_R, d_V=0.01, d_E=0.04, method="m", **fields)
+
+
+def test_targets_are_judged_on_rows_by_their_fields():
+    paper, nn = plan.PAPER_ROWS["OperatorNet (Int+Ext)"], plan.PAPER_ROWS["Nearest neighbour (Int+Ext)"]
+    rows = [_row(d_R=1e-4, **paper), _row(d_R=12e-4, **nn), _row(d_R=0.5e-4, **dict(paper, variant="ours"))]
+    by_key = {t.key: t for t in targets.TARGETS}
+    (v,) = targets.judge(by_key["nn-ratio-test"], rows)
+    assert v.value == pytest.approx(12) and v.met and v.target.threshold == 10 and v.target.at_least
+    (v,) = targets.judge(by_key["ours-gain"], rows)
+    assert v.value == pytest.approx(2) and v.met
+    (v,) = targets.judge(by_key["d_V"], rows)
+    assert v.value == 0.01 and v.met and v.denominator is None
+    rows[1]["d_R"] = 8e-4  # NN closer: the target is missed
+    assert not targets.judge(by_key["nn-ratio-test"], rows)[0].met
+    assert targets.judge(by_key["nn-ratio-test_subjects"], rows) == []  # no rows on that split: no verdict
+    lines = report.targets(rows)
+    assert any("NN's d_R / OperatorNet (Int+Ext)'s = 8 (" in line and "missed" in line for line in lines)
+    assert not any("target" in line for line in report.targets(rows, paper=False))
+
+
+def test_every_target_names_its_rows_threshold_and_source():
+    for t in targets.TARGETS:
+        assert t.numerator and t.source and t.threshold > 0 and t.table in ("table1", "discretisation", "analogy")
+    assert len({t.key for t in targets.TARGETS}) == len(targets.TARGETS)
+
+
+# -- the ablation of any set ---------------------------------------------------------------------------------------
+
+
+def test_a_set_of_ones_own_joins_the_plan_once():
+    made = config.ReproduceConfig(ablation_channels=("area,offset_area", "extrinsic,area"), collection="animals")
+    labels = {e.name for e in reproduce.plan_for(made).entries if e.table == "ablation"}
+    assert "OperatorNet (Area+offset_area) depth 1" in labels  # beside the paper's seven
+    assert len(labels) == 8 * len(plan.ABLATION_DEPTHS)  # "extrinsic,area" is the paper's A+E column
+
+
+def test_the_report_lays_out_a_set_outside_the_papers_grid():
+    rows = [
+        dict(table="ablation", split="test", depth=d, channels=list(ch), d_R=(i + d) * 1e-4, method="m")
+        for d in plan.ABLATION_DEPTHS
+        for i, ch in enumerate([*plan.ABLATION_SETS.values(), ("area", "half area")])
+    ]
+    columns = report.ablation_columns(rows)
+    assert columns == [*plan.ABLATION_SETS, "Area+half area"]
+    table = report.ablation_table(rows)
+    assert table.shape == (4, 8) and np.isfinite(table).all()
+    assert table[0, -1] == pytest.approx(1e4 * rows[7]["d_R"])
+    md = "\n".join(report.ablation_markdown(rows, dict(epochs=1, ablation_epochs=1)))
+    assert "Area+half area" in md and "| – |" in md  # the paper has no number for it
+    assert "All three operators give the best column" in md  # A+E+C found by name, not by position
+
+
+# -- registered by a test: a baseline, a collection, a channel in the ablation -------------------------------------
+
+
+def test_a_baseline_registered_by_a_test_builds_rows_with_its_key(monkeypatch, tiny_collection):
+    coll = tiny_collection()
+
+    def mean_shape(collection, budget, device):
+        mean = collection.vertices[collection.indices("train")].mean(0).astype(np.float64)
+        return opnet.evaluate.Method("Mean shape", lambda idx: np.broadcast_to(mean, (len(idx), *mean.shape)))
+
+    monkeypatch.setitem(baselines.BASELINES, "mean_shape", mean_shape)
+    with pytest.raises(ValueError, match="registered already"):
+        baselines.register_baseline("mean_shape", mean_shape)
+    with pytest.raises(ValueError, match="unknown baseline 'nope'"):
+        baselines.baseline_method("nope", coll, BUDGET)
+    entry = plan.Entry("mean", "Mean shape", baseline="mean_shape")
+    ws = opnet.experiments.runner.Workspace(coll, opnet.data.profile_of("tiny"), "unused", BUDGET)
+    rows, done = opnet.experiments.runner.run_entries([entry], ws, extra=dict(preset="tiny"))
+    assert {r["split"] for r in rows} == set(opnet.evaluate.TEST_SETS)
+    assert all(r["baseline"] == "mean_shape" and r["entry"] == "mean" and r["table"] == "table1" for r in rows)
+    assert all(r["epochs"] is None and r["preset"] == "tiny" for r in rows)
+    assert done["mean"].method.info["baseline"] == "mean_shape"
+
+
+@pytest.mark.slow
+def test_a_collection_registered_by_a_test_runs_through_reproduce_collection(capsules, tmp_path, monkeypatch):
+    """A new collection is one profile: ``python -m opnet reproduce --collection capsules`` runs its plan."""
+    monkeypatch.setitem(plan.BUDGETS, "quick", BUDGET)
+    out = tmp_path / "out"
+    argv = ["reproduce", "--collection", "capsules", "--out", str(out), "--no-ablation", "--no-figures"]
+    assert main([*argv, "--device", "cpu"]) == 0
+    rows, context = reproduce.read_results(out)
+    assert context["data"] == "capsules" and "applications" not in context["plan"]
+    assert {r["table"] for r in rows} == {"table1"}  # no generator: no applications, no maps, no bodies
+    keys = {r["entry"] for r in rows}
+    assert {"int+ext", "int", "ext", "ours", "nn", "base-shape", "geometric", "int+ext+refined"} <= keys
+    assert not {"pointnet", "comp-ext", "bodies-shape"} & keys
+    md = (out / "results.md").read_text()
+    assert "paper d_R" not in md and "DFAUST" not in md  # its profile has no paper numbers
+    with pytest.raises(ValueError, match="--no-maps"):
+        reproduce.reproduce("quick", out, collection="capsules", maps=True)
+
+
+@pytest.mark.slow
+def test_a_channel_of_ones_own_joins_the_reproductions_ablation(capsules, half_area, tmp_path, monkeypatch):
+    monkeypatch.setitem(plan.BUDGETS, "quick", BUDGET)
+    out = tmp_path / "out"
+    argv = ["reproduce", "--collection", "capsules", "--out", str(out), "--no-refine", "--device", "cpu"]
+    assert main([*argv, "--ablation-channels", f"area,{half_area}"]) == 0
+    rows, context = reproduce.read_results(out)
+    abl = [r for r in rows if r["table"] == "ablation"]
+    own = [r for r in abl if r["channels"] == ["area", "half area"]]
+    assert len(own) == len(plan.ABLATION_DEPTHS) and len(abl) == 8 * len(plan.ABLATION_DEPTHS)
+    assert report.ablation_columns(rows)[-1] == "Area+half area"
+    assert np.isfinite(report.ablation_table(rows)).all()
+    assert "Area+half area" in (out / "results.md").read_text()
+    assert (out / "figures" / "ablation.png").stat().st_size > 1000
+    runs = json.loads((out / "runs" / own[0]["run"] / "config.json").read_text())
+    assert runs["channel_specs"]["half area"] == half_area  # its class, recorded for `opnet evaluate`
