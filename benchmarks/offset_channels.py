@@ -72,7 +72,7 @@ def measure(args) -> dict:
         batch_size=budget.batch_size,
         lr=budget.lr,
         hidden=budget.hidden,
-        seed=args.seed,
+        seeds=(args.seed,),
     )
     names = {tuple(channels): name for name, channels in SETS.items()}
     rows = []

@@ -395,14 +395,18 @@ def evenly_spaced(indices, count: int) -> np.ndarray:
     return indices[np.linspace(0, len(indices) - 1, count).round().astype(int)]
 
 
-def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = None) -> list[dict]:
+def evaluate(
+    collection, methods, test_sets=TEST_SETS, *, extra: dict | None = None, per_shape: bool = False
+) -> list[dict]:
     """One row per (method, test set): ``method`` (its display name), ``channels`` (a list of channel names; empty
     for a method that reads no operators), ``depth``, ``split``, ``n_shapes``,
     ``seconds_per_shape`` (the method's wall time over the set, per shape) and the mean and median of ``d_R``
     (length²), ``d_V``, ``d_E`` (keys ``d_R``, ``d_R_median``, ...).
 
     ``methods``: :class:`Method` objects; ``test_sets``: any of :data:`SETS` (``"val"`` to choose between
-    experiments); ``extra``: fields added to every row (e.g. the preset).
+    experiments); ``extra``: fields added to every row (e.g. the preset); ``per_shape``: rows also hold each shape's
+    errors (``d_R_shapes``, ``d_V_shapes``, ``d_E_shapes``: lists in the set's order, and ``shapes``: the indices),
+    what a paired comparison needs (:mod:`opnet.experiments.stats`).
     """
     rows = []
     for m in methods:
@@ -425,5 +429,6 @@ def evaluate(collection, methods, test_sets=TEST_SETS, *, extra: dict | None = N
                 n_shapes=int(len(idx)),
                 seconds_per_shape=seconds,
             )
-            rows.append({**row, **summarize(err), **measured, **m.info, **(extra or {})})
+            each = {f"{k}_shapes": v.tolist() for k, v in err.items()} | {"shapes": idx.tolist()} if per_shape else {}
+            rows.append({**row, **summarize(err), **measured, **each, **m.info, **(extra or {})})
     return rows

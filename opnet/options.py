@@ -14,7 +14,18 @@ from __future__ import annotations
 import argparse
 import dataclasses
 
-__all__ = ["option", "cli_fields", "add_arguments", "config_from_args"]
+__all__ = ["option", "positive_int", "cli_fields", "add_arguments", "config_from_args"]
+
+
+def positive_int(text: str) -> int:
+    """``text`` as an integer >= 1, for argparse (an ``ArgumentTypeError`` otherwise)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
 
 
 def option(

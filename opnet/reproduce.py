@@ -111,13 +111,14 @@ def default_out(preset: str, collection: str = "humans") -> Path:
 
 def plan_for(config: ReproduceConfig):
     """The plan :func:`reproduce` runs for ``config``: every declared entry (the ablation with
-    ``config.ablation_channels`` beside the paper's sets) kept by the config's parts.
+    ``config.ablation_channels`` beside the paper's sets; each network with ``config.seeds`` seeds) kept by the
+    config's parts.
     """
     sets = dict(ABLATION_SETS)
     for text in config.ablation_channels:
         channels = RunSpec(channels=text).channels  # classes and "module:Class" imported: named by their name
         sets.setdefault(ablation_label(channels), channels)
-    return select(declare(config.training, ablation_sets=sets), config.parts())
+    return select(declare(config.training, ablation_sets=sets, seeds=config.seeds), config.parts())
 
 
 def _machine(device) -> str:

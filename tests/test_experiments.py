@@ -259,3 +259,77 @@ def test_a_channel_of_ones_own_joins_the_reproductions_ablation(capsules, half_a
     assert (out / "figures" / "ablation.png").stat().st_size > 1000
     runs = json.loads((out / "runs" / own[0]["run"] / "config.json").read_text())
     assert runs["channel_specs"]["half area"] == half_area  # its class, recorded for `opnet evaluate`
+
+
+# -- claims --------------------------------------------------------------------------------------------------------
+
+
+def test_a_claim_is_confirmed_refuted_or_inconclusive_by_its_interval():
+    from opnet.experiments import claims
+
+    claim = next(c for c in claims.CLAIMS if c.key == "int+ext-below-ext")
+    rng = np.random.default_rng(0)
+    hard = rng.gamma(2.0, 1e-4, (3, 40))  # the shapes' own difficulty, shared
+
+    def rows(shift):
+        a = dict(table="table1", split="test", method="a", shapes=list(range(40)), **claim.better)
+        b = dict(table="table1", split="test", method="b", shapes=list(range(40)), **claim.worse)
+        a |= dict(d_R=float((hard - shift).mean()), d_R_shapes=(hard - shift).tolist())
+        b |= dict(d_R=float(hard.mean()), d_R_shapes=hard.tolist())
+        return [a, b]
+
+    assert claims.judge(claim, rows(1e-5)).verdict == "confirmed"
+    assert claims.judge(claim, rows(-1e-5)).verdict == "refuted"
+    assert claims.judge(claim, rows(0.0)).verdict == "inconclusive"
+    means_only = [{k: v for k, v in r.items() if k != "d_R_shapes"} for r in rows(1e-5)]
+    judged = claims.judge(claim, means_only)  # one training, no per-shape errors: no interval, no verdict
+    assert judged.verdict == "inconclusive" and judged.comparison is None and judged.better_mean < judged.worse_mean
+    assert claims.judge(claim, rows(1e-5)[:1]).missing  # its rows are not all there: not judged
+
+
+def test_the_shipped_report_opens_with_the_claims_table():
+    from opnet.experiments import claims, shipped
+
+    rows, context = shipped.shipped_results("default")
+    sections = report.results_sections(rows, context)
+    assert list(sections)[:2] == ["context", "claims"]
+    judged = claims.judge_all(rows)
+    assert {j.claim.key for j in judged} >= {"int+ext-below-ext", "nn-far-behind", "depth-1-below-2"}
+    assert all(j.verdict == "inconclusive" for j in judged)  # one training per number: no interval yet
+    text = "\n".join(sections["claims"])
+    assert "(means: not)" in text and "(means: holds)" in text  # the claims that go against us are listed too
+    assert len({c.key for c in claims.CLAIMS}) == len(claims.CLAIMS)
+
+
+@pytest.mark.slow
+def test_reproduce_with_seeds_gives_intervals_and_judges_the_claims(capsules, tmp_path, monkeypatch):
+    """``reproduce --seeds 2``: each network a run per seed, its rows over both with an interval, and the claims
+    judged by paired comparisons instead of left inconclusive."""
+    from opnet.experiments import claims
+
+    monkeypatch.setitem(plan.BUDGETS, "quick", BUDGET)
+    out = tmp_path / "out"
+    argv = ["reproduce", "--collection", "capsules", "--out", str(out), "--no-refine", "--no-figures", "--seeds", "2"]
+    assert main([*argv, "--device", "cpu", "--no-ablation"]) == 0
+    rows, context = reproduce.read_results(out)
+    nets = [r for r in rows if r["table"] == "table1" and r.get("architecture") == "operatornet"]
+    assert nets and all(r["seeds"] == [0, 1] and r["d_R_low"] <= r["d_R"] <= r["d_R_high"] for r in nets)
+    assert all(len(r["runs"]) == 2 and (out / "runs" / r["runs"][1]).is_dir() for r in nets)
+    first = next(r for r in nets if r["entry"] == "int+ext")
+    assert first["run"] == "+".join(first["runs"]) and np.shape(first["d_R_shapes"]) == (2, first["n_shapes"])
+    assert " ± " in (out / "results.md").read_text()
+    judged = {j.claim.key: j for j in claims.judge_all(rows, claims.CLAIMS)}
+    assert judged["int+ext-below-ext"].comparison is not None  # measured, with its interval
+    assert judged["nn-far-behind"].verdict in claims.VERDICTS
+
+
+def test_seeds_replicate_the_networks_only_when_asked():
+    one, three = plan.declare(BUDGET), plan.declare(BUDGET, seeds=3)
+    assert one.keys() == three.keys()  # the same entries, the same keys
+    assert not any(e.replicated for e in one.entries)
+    replicated = {e.key for e in three.entries if e.replicated}
+    assert {"int+ext", "ext", "pointnet", "comp-ext", "ablation-A+E+C-d1"} <= replicated
+    assert (
+        not {"bodies-shape-poses-quarter", "nn"} & replicated
+    )  # an ensemble keeps its members; baselines train nothing
+    assert three["int+ext"].spec.seeds == (0, 1, 2) and len(three["bodies-shape-poses-quarter"].runs) == 2

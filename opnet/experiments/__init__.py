@@ -24,6 +24,7 @@ from .report import results_markdown
 from .runner import Results, Run, Workspace, ablation, evaluate_runs, run_entries, train_run
 from .shipped import shipped_figure, shipped_results
 from .spec import RunSpec
+from .stats import Comparison, Interval, compare
 from .targets import TARGETS, Target, judge
 
 __all__ = [
@@ -46,6 +47,9 @@ __all__ = [
     "Target",
     "TARGETS",
     "judge",
+    "compare",
+    "Comparison",
+    "Interval",
     "ReproduceConfig",
     "EvaluateConfig",
     "results_markdown",

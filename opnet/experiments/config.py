@@ -8,7 +8,7 @@ from dataclasses import dataclass, fields
 
 from ..data.profiles import PROFILES, profile, reproducible
 from ..inner_products import get_inner_product, split_channels
-from ..options import option
+from ..options import option, positive_int
 from .plan import BUDGETS, PARTS, PRESETS, Budget
 
 __all__ = ["ReproduceConfig", "EvaluateConfig"]
@@ -56,6 +56,12 @@ class ReproduceConfig:
         "beside the paper's seven sets",
         append=True,
     )
+    seeds: int = option(
+        1,
+        "train each network of Table 1, the Comp rows and the ablation with this many seeds (0, 1, ...): rows then "
+        "hold each seed's mean, the spread and a 95 %% interval (over seeds and shapes), and the claims are judged",
+        type=positive_int,
+    )
     data_root: str | None = option(None, "where collections are cached")
     budget: Budget | None = option(None, "training settings (default BUDGETS[preset])", cli=False)
     progress: bool | None = option(
@@ -92,6 +98,8 @@ class ReproduceConfig:
             for channel in split_channels(s):  # unknown or unimportable: refused now, not after Table 1's training
                 get_inner_product(channel)
         object.__setattr__(self, "ablation_channels", sets)
+        if isinstance(self.seeds, bool) or not isinstance(self.seeds, int) or self.seeds < 1:
+            raise ValueError(f"seeds must be a count of trainings >= 1, got {self.seeds!r}.")
         if self.budget is not None and not isinstance(self.budget, Budget):
             raise TypeError(f"budget must be an opnet.experiments.plan.Budget, got {type(self.budget).__name__}.")
 

@@ -162,6 +162,11 @@ class Entry:
             object.__setattr__(self, "tested_on", "comp" if mixed else self.trained_on)
 
     @property
+    def replicated(self) -> bool:
+        """Whether it trains its network with several seeds, each evaluated apart (:attr:`RunSpec.seeds`)."""
+        return len(self.runs) == 1 and len(self.runs[0].seeds) > 1
+
+    @property
     def spec(self) -> RunSpec:
         """Its (first) declared run; a ``ValueError`` for a baseline or a refinement."""
         if not self.runs:
@@ -275,15 +280,18 @@ def bodies_group(bodies: str, poses: str = "sequence") -> str:
     return f"bodies-{bodies}" + ("" if poses == "sequence" else f"-poses-{poses}")
 
 
-def declare(budget: Budget, *, ablation_sets: dict | None = None) -> Plan:
+def declare(budget: Budget, *, ablation_sets: dict | None = None, seeds: int = 1) -> Plan:
     """Every entry of a reproduction at ``budget``, in the order it runs, and its steps (:func:`select` keeps a
-    reproduction's). ``ablation_sets``: the ablation's columns (default :data:`~opnet.experiments.plan.ABLATION_SETS`).
+    reproduction's). ``ablation_sets``: the ablation's columns (default :data:`~opnet.experiments.plan.ABLATION_SETS`);
+    ``seeds``: each network of Table 1, the Comp rows and the ablation is trained with seeds ``0 … seeds−1``
+    (:attr:`RunSpec.seeds <opnet.experiments.spec.RunSpec.seeds>`; an ensemble's members keep theirs).
     """
+    rep = dict(seeds=tuple(range(seeds))) if seeds > 1 else {}  # replicate trainings of each network
     entries = [
         Entry(
             key,
             name,
-            spec("table1", budget, ch, variant=v, name=name),
+            spec("table1", budget, ch, variant=v, name=name, **rep),
             paper_row=row,
             other_meshes=key in ("int+ext", "ext"),
         )
@@ -293,7 +301,7 @@ def declare(budget: Budget, *, ablation_sets: dict | None = None) -> Plan:
         Entry(
             "pointnet",
             "PointNet AE",
-            spec("table1", budget, variant="pointnet", name="PointNet AE"),
+            spec("table1", budget, variant="pointnet", name="PointNet AE", **rep),
             part="applications",
         ),
         Entry(
@@ -318,17 +326,17 @@ def declare(budget: Budget, *, ablation_sets: dict | None = None) -> Plan:
             Entry(
                 key,
                 name,
-                spec(group, budget, ch, name=name),
+                spec(group, budget, ch, name=name, **rep),
                 trained_on=data,
                 part="maps",
                 paper_row=row,
                 other_meshes=True,
             )
         )
-    for key, (name, draws, seeds) in MORE_BODIES.items():
+    for key, (name, draws, members) in MORE_BODIES.items():  # an ensemble of `members` seeds
         first = spec(bodies_group(**draws), budget, KINDS, variant="ours", name=name)
-        runs = (first, *(replace(first, seed=s, name=f"{name}, seed {s}") for s in range(1, seeds)))
-        fields = dict(draws, **({"seeds": seeds} if seeds > 1 else {}))
+        runs = (first, *(replace(first, seed=s, name=f"{name}, seed {s}") for s in range(1, members)))
+        fields = dict(draws, **({"seeds": members} if members > 1 else {}))
         entries.append(Entry(key, name, runs, draws=draws, part="bodies", fields=fields))
     refined = ("int+ext", "ours", *MORE_BODIES)
     by_key = {e.key: e for e in entries}
@@ -348,7 +356,7 @@ def declare(budget: Budget, *, ablation_sets: dict | None = None) -> Plan:
         Entry(f"{key}+refined", f"{by_key[key].name} + refinement", refines=key, test_sets=REFINE_SETS, part="refine")
         for key in refined
     ]
-    entries += ablation_entries(budget, ablation_sets)
+    entries += ablation_entries(budget, ablation_sets, seeds=seeds)
     return Plan(tuple(entries), (Step("discretisation", "maps"), Step("applications", "applications")))
 
 
@@ -362,10 +370,10 @@ def ablation_label(channels) -> str:
     return channel_label(names) if paper is None else paper
 
 
-def ablation_entries(budget: Budget, sets: dict | None = None) -> list[Entry]:
+def ablation_entries(budget: Budget, sets: dict | None = None, *, seeds: int = 1) -> list[Entry]:
     """The ablation's entries: each set of ``sets`` (label → channels; default
     :data:`~opnet.experiments.plan.ABLATION_SETS`) at each depth of :data:`ABLATION_DEPTHS`, trained
-    ``budget.ablation_epochs`` epochs, evaluated on ``test``.
+    ``budget.ablation_epochs`` epochs (with ``seeds`` seeds), evaluated on ``test``; its key is its first run's name.
     """
     sets = ABLATION_SETS if sets is None else sets
     out = []
@@ -373,11 +381,12 @@ def ablation_entries(budget: Budget, sets: dict | None = None) -> list[Entry]:
         for label, channels in sets.items():
             name = f"OperatorNet ({label}) depth {depth}"
             s = spec("ablation", budget, channels, depth, epochs=budget.ablation_epochs, name=name)
+            key = f"ablation-{s.run_name.removeprefix('ablation-')}"  # the same key whatever the seeds
             out.append(
                 Entry(
-                    f"ablation-{s.run_name.removeprefix('ablation-')}",
+                    key,
                     name,
-                    s,
+                    replace(s, seeds=tuple(range(seeds))) if seeds > 1 else s,
                     table="ablation",
                     test_sets=("test",),
                     part="ablation",

@@ -22,6 +22,7 @@ import numpy as np
 from .._files import atomic_write
 from ..data.profiles import profile_of
 from ..evaluate import SPECIES_SETS
+from .claims import claims_markdown
 from .paper import PAPER_ABLATION, PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS, PAPER_TABLE1
 from .plan import BUDGETS, PAPER_ROWS, ablation_label, declare
 from .rows import matches, row_channels
@@ -161,6 +162,16 @@ def ablation_table(rows) -> np.ndarray:
     return table
 
 
+def _pm(row: dict, metric: str, scale: float = 1.0) -> str:
+    """A row's ``metric`` as a table prints it: ``mean ± half-width`` of its 95 % interval where it has one (a row over
+    seeds, :func:`opnet.experiments.stats.summarize_seeds`), else the mean.
+    """
+    low, high = row.get(f"{metric}_low"), row.get(f"{metric}_high")
+    if low is None or high is None:
+        return _fmt(row.get(metric), scale)
+    return f"{_fmt(row[metric], scale)} ± {_fmt((high - low) / 2, scale, 2)}"
+
+
 def _fmt(v, scale=1.0, digits=3) -> str:
     return "–" if v is None or not np.isfinite(v) else f"{scale * v:.{digits}g}"
 
@@ -282,6 +293,7 @@ def results_markdown(rows: list[dict], context: dict) -> str:
 #: The headings of :func:`results_sections` in ``results.md``.
 SECTION_TITLES = {
     "context": "",
+    "claims": "Claims, judged on these rows",
     "table1": "Table 1: shape reconstruction",
     "targets": "Targets",
     "ablation": "Ablation (Appendix B): d_R ×10⁻⁴ on `test`",
@@ -300,7 +312,8 @@ def results_sections(rows: list[dict], context: dict) -> dict[str, list[str]]:
     t1 = [r for r in rows if r.get("table") == "table1"]
     p = _profile(context)
     paper = p.paper_numbers
-    sections = {"context": context_markdown(context), "table1": table1_markdown(rows, paper=paper)}
+    sections = {"context": context_markdown(context), "claims": claims_markdown(rows) if paper else []}
+    sections["table1"] = table1_markdown(rows, paper=paper)
     sections |= {"targets": targets(t1, paper=paper), "ablation": ablation_markdown(rows, context["budget"], paper)}
     other_meshes = discretisation_markdown(rows) if p.computed_maps else []  # its other triangulations
     sections |= {"discretisation": other_meshes, "applications": applications_markdown(rows, context)}
@@ -340,7 +353,11 @@ def table1_markdown(rows: list[dict], paper: bool = True) -> list[str]:
     t1 = [r for r in upgrade_rows(rows) if r.get("table") == "table1"]
     if not t1:
         return []
-    lines = ["d_R ×10⁻⁴ (m²), mean (median in brackets).", ""]
+    lines = [
+        "d_R ×10⁻⁴ (m²), mean (median in brackets); a network trained with several seeds: mean ± half-width of the "
+        "95 % interval over seeds and shapes.",
+        "",
+    ]
     keys = list(dict.fromkeys(row_key(r) for r in t1))
     splits = [s for s in SPECIES_SETS if any(r["split"] == s for r in t1)]
     head = (
@@ -358,7 +375,7 @@ def table1_markdown(rows: list[dict], paper: bool = True) -> list[str]:
         for s in splits:
             r = next((r for r in mine if r["split"] == s), None)
             cells += (
-                [f"{_fmt(r['d_R'], 1e4)} ({_fmt(r['d_R_median'], 1e4)})", _fmt(r["d_V"]), _fmt(r["d_E"])]
+                [_pm(r, "d_R", 1e4) + f" ({_fmt(r['d_R_median'], 1e4)})", _pm(r, "d_V"), _pm(r, "d_E")]
                 if r
                 else ["–"] * 3
             )

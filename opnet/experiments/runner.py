@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..evaluate import evaluate, nearest_neighbour_method, operatornet_method, pointnet_method
+from ..inner_products import channel_names
 from .spec import RunSpec
 
 __all__ = [
@@ -53,10 +54,8 @@ class Results(list):
     shown in a notebook as a Markdown table of ``d_R`` (×10⁻⁴). :meth:`pivot` lays them out as the paper's ablation.
     """
 
-    def pivot(self, metric: str = "d_R", split: str | None = None, scale: float = 1e4) -> dict:
-        """``{channels label: {depth: value}}`` of ``metric`` (× ``scale``) for the rows of one split (default: the
-        first one present), one entry per run; baselines (no depth) go under depth ``None``.
-        """
+    def _rows(self, metric: str, split: str | None) -> dict:
+        """``{channels label: {depth: row}}`` of the rows of one split that have ``metric``."""
         from ..inner_products import channel_label
 
         split = split or next((r["split"] for r in self), None)
@@ -66,12 +65,32 @@ class Results(list):
                 key = channel_label(r["channels"]) if r["channels"] else r["method"]
                 if r.get("variant") not in (None, "paper"):  # runs that differ by more than channels and depth
                     key += f" ({r['variant']})"
-                out.setdefault(key, {})[r.get("depth")] = r[metric] * scale
+                out.setdefault(key, {})[r.get("depth")] = r
         return out
 
+    def pivot(self, metric: str = "d_R", split: str | None = None, scale: float = 1e4) -> dict:
+        """``{channels label: {depth: value}}`` of ``metric`` (× ``scale``; over seeds, their mean) for the rows of
+        one split (default: the first one present), one entry per network; baselines (no depth) under depth ``None``.
+        """
+        return {k: {d: r[metric] * scale for d, r in row.items()} for k, row in self._rows(metric, split).items()}
+
+    def compare(self, a, b, *, depth: int = 1, metric: str = "d_R", split: str | None = None):
+        """Does channel set ``a`` decode better than ``b`` at ``depth``? Their paired comparison on ``split`` (default
+        the first one present): :func:`opnet.experiments.stats.compare` of the two networks' rows, with its interval
+        over seeds and shapes and its verdict (``"a better"``, ``"b better"`` or ``"no difference shown"``).
+        """
+        from ..inner_products import split_channels
+        from .stats import compare
+
+        split = split or next((r["split"] for r in self), None)
+        fields = [dict(channels=channel_names(split_channels(x)), depth=depth, baseline=None) for x in (a, b)]
+        return compare(self, *fields, metric=metric, split=split)
+
     def markdown(self, metric: str = "d_R", split: str | None = None, scale: float = 1e4) -> str:
-        """The :meth:`pivot` as a Markdown table: a row per channel set, a column per depth."""
-        table = self.pivot(metric, split, scale)
+        """The :meth:`pivot` as a Markdown table: a row per channel set, a column per depth; ``mean ± half-width`` of
+        the 95 % interval where the rows have one (over seeds and shapes).
+        """
+        table = self._rows(metric, split)
         depths = sorted({d for row in table.values() for d in row}, key=lambda d: (d is None, d or 0))
         head = ["channels", *[f"depth {d}" if d is not None else "baseline" for d in depths]]
         split = split or next((r["split"] for r in self), "")
@@ -81,8 +100,14 @@ class Results(list):
             "| " + " | ".join(head) + " |",
             "|" + "---|" * len(head),
         ]
+
+        def cell(r) -> str:
+            if r.get(f"{metric}_low") is None:
+                return f"{scale * r[metric]:.3f}"
+            return f"{scale * r[metric]:.3f} ± {scale * (r[f'{metric}_high'] - r[f'{metric}_low']) / 2:.2g}"
+
         for key, row in table.items():
-            cells = [f"{row[d]:.3f}" if d in row else "" for d in depths]
+            cells = [cell(row[d]) if d in row else "" for d in depths]
             lines.append("| " + " | ".join([key, *cells]) + " |")
         return "\n".join(lines)
 
@@ -119,6 +144,7 @@ def ablation(
     depths=(1,),
     epochs: int = 50,
     *,
+    seeds=1,
     run_root=None,
     test_sets=("val",),
     baselines: bool = True,
@@ -127,8 +153,9 @@ def ablation(
     **train_options,
 ):
     """The ablation of Appendix B over any channels: OperatorNet trained on each set of ``channel_sets`` at each of
-    ``depths`` for ``epochs``, evaluated on ``test_sets`` (default ``val``, where experiments are chosen; the test
-    sets belong to a final evaluation), beside the nearest-neighbour baseline on the same channels.
+    ``depths`` for ``epochs``, with each of ``seeds``, evaluated on ``test_sets`` (default ``val``, where experiments
+    are chosen; the test sets belong to a final evaluation), beside the nearest-neighbour baseline on the same
+    channels.
 
     Parameters
     ----------
@@ -137,29 +164,46 @@ def ablation(
     channel_sets : a list of channel sets (each a list of names or inner products, or a short name like ``"A+E"``).
     depths : encoder depths (1–4).
     epochs : training epochs of each network.
+    seeds : how many trainings of each network (seeds 0, 1, ...), or the seeds themselves; its rows summarise them
+        (:func:`opnet.experiments.stats.summarize_seeds`: the mean, the spread over seeds, a 95 % interval).
     run_root : where each run gets its folder (resumable; a finished run is loaded); ``None``: in memory.
     baselines : also the nearest-neighbour rows (``depth`` ``None``) of each channel set.
     train_options : other fields of :class:`~opnet.experiments.spec.RunSpec` (``batch_size``, ``lr``, ``hidden``,
-        ``variant``, ``seed``).
+        ``variant``).
 
     Returns
     -------
-    opnet.experiments.runner.Results : one row per (run, test set), and per (baseline, test set);
-        ``Results.markdown()`` pivots them.
+    opnet.experiments.runner.Results : one row per (network, test set), and per (baseline, test set), each with its
+        per-shape errors; ``Results.markdown()`` pivots them, ``Results.compare`` answers "does this set help over
+        that one?".
     """
     from tqdm.auto import tqdm
 
+    from .stats import summarize_seeds
+
+    if "seed" in train_options:
+        raise TypeError("ablation trains every network with each of seeds=: give seeds=(s,) for one seed s.")
+    seeds = tuple(range(seeds)) if isinstance(seeds, int) and not isinstance(seeds, bool) else tuple(seeds)
+    if not seeds:
+        raise ValueError("seeds must be a count >= 1 or a sequence of seeds, e.g. 3 or (0, 1, 2).")
     specs = [
-        RunSpec(channels=channels, depth=depth, epochs=epochs, group="ablation", **train_options)
+        RunSpec(channels=channels, depth=depth, epochs=epochs, group="ablation", seeds=seeds, **train_options)
         for channels in channel_sets
         for depth in depths
     ]
-    bar = tqdm(specs, desc="ablation", unit="network", disable=progress is False)
-    runs = []
-    for spec in bar:
-        bar.set_postfix_str(spec.label)
-        runs.append(train_run(spec, collection, run_root, device=device, progress=progress is True))
-    rows = evaluate_runs(runs, collection, test_sets)
+    bar = tqdm(total=len(specs) * len(seeds), desc="ablation", unit="network", disable=progress is False)
+    rows = Results()
+    for spec in specs:
+        per_seed = []
+        for replicate in spec.replicates():
+            bar.set_postfix_str(f"{spec.label}, seed {replicate.seed}")
+            run = train_run(replicate, collection, run_root, device=device, progress=progress is True)
+            method = run.method(collection, seed=replicate.seed)
+            per_seed.append(evaluate(collection, [method], test_sets, per_shape=True))
+            bar.update(1)
+        for split_rows in zip(*per_seed):  # one row per test set, over the seeds
+            rows.append(summarize_seeds(list(split_rows)))
+    bar.close()
     if baselines:
         seen = []
         for spec in specs:
@@ -167,7 +211,7 @@ def ablation(
                 seen.append(spec.channel_names)
                 info = dict(run=None, architecture=None, variant=None, channels=list(spec.channel_names), depth=None)
                 nn = nearest_neighbour_method(collection, spec.channels, info=dict(info, baseline="nearest_neighbour"))
-                rows += evaluate(collection, [nn], test_sets)
+                rows += evaluate(collection, [nn], test_sets, per_shape=True)
     return rows
 
 
@@ -184,6 +228,7 @@ class Outcome:
     method: object
     runs: list
     tested_on: object
+    methods: list = field(default_factory=list)  # a replicated entry's: one per seed (``method`` is the first's)
 
 
 class Workspace:
@@ -268,6 +313,10 @@ def build_method(entry, ws: Workspace, done: dict) -> Outcome:
         options = refine_options(ws.budget, ws.device)
         return Outcome(entry, refined_method(start.method, tested, name=entry.name, info=info, **options), [], tested)
     trained_on = ws.data(entry.trained_on, entry.draws)
+    if entry.replicated:  # one run per seed, each its own method; their rows are summarised with intervals
+        runs = [ws.train(s, trained_on) for s in entry.spec.replicates()]
+        methods = [r.method(tested, **where, **entry.fields, seed=r.spec.seed) for r in runs]
+        return Outcome(entry, methods[0], runs, tested, methods)
     runs = [ws.train(s, trained_on) for s in entry.runs]
     info = {**where, **entry.run_fields(), **runs[0].info}
     if len(runs) == 1:
@@ -283,6 +332,7 @@ def run_entries(entries, ws: Workspace, *, extra: dict | None = None, done: dict
     interruption loses one entry's work at most).
     """
     from ..evaluate import test_sets_for
+    from .stats import summarize_seeds
 
     done = {} if done is None else done
     rows = []
@@ -290,7 +340,11 @@ def run_entries(entries, ws: Workspace, *, extra: dict | None = None, done: dict
         outcome = build_method(entry, ws, done)
         done[entry.key] = outcome
         test_sets = entry.test_sets or test_sets_for(outcome.tested_on)
-        rows += evaluate(outcome.tested_on, [outcome.method], test_sets, extra=extra)
+        if outcome.methods:  # each seed evaluated on the same shapes, then one row per test set over them
+            each = [evaluate(outcome.tested_on, [m], test_sets, extra=extra, per_shape=True) for m in outcome.methods]
+            rows += [dict(summarize_seeds(list(split)), run=entry.run_fields()["run"]) for split in zip(*each)]
+        else:
+            rows += evaluate(outcome.tested_on, [outcome.method], test_sets, extra=extra)
         if ws.bar is not None:
             ws.bar.update(1)
         if saved is not None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from numbers import Real
 from pathlib import Path
 
@@ -41,6 +41,9 @@ class RunSpec:
     variant : ``"paper"`` or ``"ours"`` (:data:`opnet.model.VARIANTS`).
     architecture : ``"operatornet"`` or ``"pointnet"``.
     epochs, batch_size, lr, hidden, seed : the budget and the seed (:func:`opnet.train.fit`).
+    seeds : the seeds of replicate trainings of the same network (e.g. ``(0, 1, 2)``; default: ``seed`` alone); each
+        is a run of its own (:meth:`replicates`), and their rows are summarised with intervals
+        (:mod:`opnet.experiments.stats`).
     group : the prefix of its run directory (``"table1"``, ``"ablation"``, ...).
     name : its display name in tables (default ``"OperatorNet (<channels>)"``, with the depth when not 1).
     options : other options of :func:`opnet.train.fit` (e.g. ``{"standardize": True}``).
@@ -55,6 +58,7 @@ class RunSpec:
     lr: float = 1e-3
     hidden: int = 1024
     seed: int = 0
+    seeds: tuple = ()
     group: str = "run"
     name: str | None = None
     options: dict = field(default_factory=dict, hash=False)
@@ -72,6 +76,14 @@ class RunSpec:
         if self.architecture == "operatornet" and not channels:
             raise ValueError("an operatornet run needs channels (e.g. ('area', 'extrinsic')).")
         object.__setattr__(self, "channels", () if self.architecture == "pointnet" else channels)
+        seeds = (self.seeds,) if isinstance(self.seeds, int) else tuple(self.seeds)
+        if not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds) or len(set(seeds)) != len(
+            seeds
+        ):
+            raise ValueError(f"seeds must be distinct integers >= 0, e.g. (0, 1, 2), got {self.seeds!r}.")
+        if seeds and self.seed != 0:
+            raise ValueError(f"give seed={self.seed} or seeds={seeds}, not both (seeds lists every seed to train).")
+        object.__setattr__(self, "seeds", seeds)
         if not re.fullmatch(r"[A-Za-z0-9_.+-]+", self.group):
             raise ValueError(f"group must be a folder-name prefix (letters, digits, _ . + -), got {self.group!r}.")
 
@@ -99,8 +111,11 @@ class RunSpec:
         the folders reproduce always used), in another order by their names (``extrinsic+area``: the channel order
         is the network's input order, so another network); a set with channels of your own by their names and a
         digest of their implementations, so that editing a class trains a new run instead of resuming one of the old
-        code. A seed other than 0 and extra options add ``-s<seed>`` and a digest of the options.
+        code. A seed other than 0 and extra options add ``-s<seed>`` and a digest of the options. A spec of several
+        :attr:`seeds` names its replicates' runs joined by ``+``.
         """
+        if self.seeds:
+            return "+".join(r.run_name for r in self.replicates())
         if self.architecture == "pointnet":
             stem = f"{self.group}-pointnet"
         else:
@@ -124,12 +139,22 @@ class RunSpec:
             stem += "-" + hashlib.sha256(repr(sorted(canon.items())).encode()).hexdigest()[:8]
         return stem
 
+    def replicates(self) -> tuple:
+        """One spec per seed of :attr:`seeds` (``seed`` set, ``seeds`` empty), or ``(self,)`` for one seed."""
+        if not self.seeds:
+            return (self,)
+        return tuple(replace(self, seed=s, seeds=()) for s in self.seeds)
+
     def run_dir(self, root) -> Path | None:
         """``root / run_name`` (``None`` when ``root`` is ``None``: trained in memory, nothing written)."""
         return None if root is None else Path(root) / self.run_name
 
     def fit_options(self) -> dict:
-        """The keyword arguments of :func:`opnet.train.fit` this spec stands for (without the collection)."""
+        """The keyword arguments of :func:`opnet.train.fit` this spec stands for (without the collection); a spec
+        of several :attr:`seeds` trains one run per seed (:meth:`replicates`), so it has none.
+        """
+        if self.seeds:
+            raise ValueError(f"{self.label} declares the seeds {self.seeds}: train each of spec.replicates().")
         common = dict(epochs=self.epochs, batch_size=self.batch_size, lr=self.lr, hidden=self.hidden, seed=self.seed)
         if self.architecture == "pointnet":
             return dict(common, architecture="pointnet", **self.options)

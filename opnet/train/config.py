@@ -18,7 +18,7 @@ from .._checks import check_int, check_number
 from ..devices import resolve_device  # re-exported: opnet.train.config.resolve_device as before
 from ..inner_products import get_inner_product, split_channels
 from ..model import ARCHITECTURES, VARIANTS
-from ..options import option
+from ..options import option, positive_int
 from ..shape_difference import CHANNEL_SETS, KINDS
 
 __all__ = [
@@ -39,17 +39,6 @@ DEPTHS = (1, 2, 3, 4)
 _VARIANT_SCHEDULE = {"paper": "constant", "ours": "onecycle"}
 #: The number of vertices the PointNet encoder reads when ``n_points`` is not given.
 DEFAULT_POINTS = 256
-
-
-def positive_int(text: str) -> int:
-    """``text`` as an integer >= 1, for argparse (an ``ArgumentTypeError`` otherwise)."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
 
 
 def parse_channels(channels, collection=None) -> tuple[str, ...]:

@@ -1,0 +1,224 @@
+"""The paper's quantitative claims, and this project's own, as records judged on rows.
+
+A :class:`Claim` says that one method (the rows with the fields ``better``) has a lower ``metric`` than another
+(``worse``) on some rows (``table`` and ``where``: a split, or an application's kind), and where it comes from.
+:func:`judge` measures it on rows:
+
+- ``confirmed``: the paired comparison's interval (:func:`opnet.experiments.stats.compare`: the same shapes, seed
+  by seed) lies wholly on the claim's side;
+- ``refuted``: it lies wholly on the other side;
+- ``inconclusive``: it holds 0, or the rows carry no per-shape errors (one training and its means alone, as
+  reproductions wrote before seeds were part of a run): the means are given, but no interval, so no verdict.
+
+The verdict is measured, never written by hand; :func:`claims_markdown` lays the verdicts out as a table.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from .paper import PAPER_ABLATION, PAPER_ABLATION_SETS, PAPER_TABLE1
+from .plan import PAPER_ROWS
+from .rows import matches
+
+__all__ = ["Claim", "Judged", "CLAIMS", "VERDICTS", "judge", "judge_all", "claims_markdown"]
+
+#: The verdicts of a claim.
+VERDICTS = ("confirmed", "refuted", "inconclusive")
+
+_INT_EXT, _INT, _EXT = (PAPER_ROWS[f"OperatorNet ({c})"] for c in ("Int+Ext", "Int", "Ext"))
+_NN = PAPER_ROWS["Nearest neighbour (Int+Ext)"]
+_ABLATION = dict(table="ablation", architecture="operatornet", variant="paper", group="ablation")
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One claim: the rows with the fields ``better`` have a lower ``metric`` than those with ``worse``.
+
+    ``table`` and ``where`` (fields both rows share: ``split``, ``kind``) say which rows; ``source`` where the claim
+    is made (the paper's table or figure, or this project's docs); ``paper``: the paper's own numbers for it, as
+    text; ``ours``: a claim of this project rather than the paper's.
+    """
+
+    key: str
+    statement: str
+    better: dict = field(hash=False)
+    worse: dict = field(hash=False)
+    source: str
+    metric: str = "d_R"
+    table: str = "table1"
+    where: dict = field(default_factory=lambda: dict(split="test"), hash=False)
+    paper: str = ""
+    ours: bool = False
+
+
+@dataclass(frozen=True)
+class Judged:
+    """A claim measured on rows: the two means, the comparison (``None`` without per-shape errors) and the verdict;
+    ``missing``: the claim's rows are not all there (nothing is judged).
+    """
+
+    claim: Claim
+    verdict: str
+    better_mean: float | None = None
+    worse_mean: float | None = None
+    comparison: object = None
+    missing: bool = False
+
+
+def _depth(d: int) -> dict:
+    return dict(_ABLATION, channels=PAPER_ABLATION_SETS["A+E+C"], depth=d)
+
+
+#: The claims (the paper's first, then this project's).
+CLAIMS = (
+    Claim(
+        "int+ext-below-ext",
+        "The extrinsic operator helps: Int+Ext reconstructs better than Ext alone",
+        _INT_EXT,
+        _EXT,
+        "Table 1",
+        paper=f"{PAPER_TABLE1['OperatorNet (Int+Ext)'][0]} < {PAPER_TABLE1['OperatorNet (Ext)'][0]}",
+    ),
+    Claim(
+        "ext-below-int",
+        "The extrinsic operator alone beats the two intrinsic ones",
+        _EXT,
+        _INT,
+        "Table 1",
+        paper=f"{PAPER_TABLE1['OperatorNet (Ext)'][0]} < {PAPER_TABLE1['OperatorNet (Int)'][0]}",
+    ),
+    Claim(
+        "nn-far-behind",
+        "OperatorNet reconstructs better than the nearest training shape (NN)",
+        _INT_EXT,
+        _NN,
+        "Table 1",
+        paper=f"{PAPER_TABLE1['OperatorNet (Int+Ext)'][0]} < {PAPER_TABLE1['Nearest neighbour (Int+Ext)'][0]}",
+    ),
+    Claim(
+        "nn-far-behind-unseen",
+        "OperatorNet reconstructs unseen subjects better than NN",
+        _INT_EXT,
+        _NN,
+        "Table 1",
+        where=dict(split="test_subjects"),
+    ),
+    *(
+        Claim(
+            f"depth-1-below-{d}",
+            f"Depth 1 beats depth {d} on all three operators",
+            _depth(1),
+            _depth(d),
+            "Appendix B",
+            table="ablation",
+            paper=f"{PAPER_ABLATION[1][-1]} < {PAPER_ABLATION[d][-1]}",
+        )
+        for d in (2, 3, 4)
+    ),
+    *(
+        Claim(
+            f"all-three-below-{name}",
+            f"At depth 1 all three operators beat {name}",
+            _depth(1),
+            dict(_ABLATION, channels=channels, depth=1),
+            "Appendix B",
+            table="ablation",
+            paper=f"{PAPER_ABLATION[1][-1]} < {PAPER_ABLATION[1][list(PAPER_ABLATION_SETS).index(name)]}",
+        )
+        for name, channels in PAPER_ABLATION_SETS.items()
+        if name != "A+E+C"
+    ),
+    *(
+        Claim(
+            f"analogy-{kind}-below-pointnet",
+            f"Analogies ({kind} transfer) are answered better than by the PointNet autoencoder",
+            dict(_INT_EXT, scheme="multiplicative"),
+            dict(architecture="pointnet", refined=None),
+            "Figs. 9-10, section 7",
+            table="analogy",
+            where=dict(kind=kind),
+        )
+        for kind in ("pose", "body")
+    ),
+    *(
+        Claim(
+            f"interpolation-{kind}-smoother-than-{other}",
+            f"Interpolation ({kind} paths) is smoother than {other}'s (the largest step over the path length)",
+            dict(_INT_EXT, scheme="multiplicative"),
+            fields,
+            "Figs. 6-7, section 7",
+            metric="smoothness",
+            table="interpolation",
+            where=dict(kind=kind),
+        )
+        for kind in ("pose", "body")
+        for other, fields in (
+            ("the PointNet autoencoder", dict(architecture="pointnet", refined=None)),
+            ("the linear algebra", dict(_INT_EXT, scheme="linear")),
+        )
+    ),
+    Claim(
+        "ours-below-paper",
+        "Our variant reconstructs better than the paper's network on the same input",
+        dict(_INT_EXT, variant="ours"),
+        _INT_EXT,
+        "docs/results.md, 'Our variant'",
+        ours=True,
+    ),
+)
+
+
+def judge(claim: Claim, rows) -> Judged:
+    """``claim`` measured on ``rows`` (see the module's docstring)."""
+    from .stats import compare
+
+    mine = [r for r in rows if r.get("table") == claim.table and matches(r, **claim.where)]
+    found = [[r for r in mine if matches(r, **fields)] for fields in (claim.better, claim.worse)]
+    if any(len(f) != 1 or f[0].get(claim.metric) is None for f in found):
+        return Judged(claim, "inconclusive", missing=True)
+    (b,), (w,) = found
+    means = dict(better_mean=b[claim.metric], worse_mean=w[claim.metric])
+    if f"{claim.metric}_shapes" not in b or f"{claim.metric}_shapes" not in w:
+        return Judged(claim, "inconclusive", **means)
+    split = claim.where.get("split")
+    where = {k: v for k, v in claim.where.items() if k != "split"}
+    c = compare(
+        [r for r in mine], dict(claim.better, **where), dict(claim.worse, **where), metric=claim.metric, split=split
+    )
+    verdict = {"a better": "confirmed", "b better": "refuted"}.get(c.verdict, "inconclusive")
+    return Judged(claim, verdict, comparison=c, **means)
+
+
+def judge_all(rows, claims=CLAIMS) -> list[Judged]:
+    """Every claim measured on ``rows``, those whose rows are all there."""
+    return [j for j in (judge(c, rows) for c in claims) if not j.missing]
+
+
+def claims_markdown(rows, claims=CLAIMS) -> list[str]:
+    """The claims table (lines): each claim, its source, the two means, the paired difference with its interval and
+    the verdict; empty when no claim's rows are there.
+    """
+    judged = judge_all(rows, claims)
+    if not judged:
+        return []
+    lines = [
+        "Each claim is judged by a paired comparison of its two methods on the same test shapes, seed by seed "
+        "(`opnet.experiments.claims`): *confirmed* or *refuted* when the 95 % interval of the difference lies on one "
+        "side of 0, else *inconclusive*. Rows without per-shape errors (one training, its means alone) are "
+        "*inconclusive*: the means are shown, the interval is not known.",
+        "",
+        "| claim | source | the paper | ours: better / worse | difference (95 % interval) | verdict |",
+        "|---|---|---|---|---|---|",
+    ]
+    for j in judged:
+        c, scale = j.claim, 1e4 if j.claim.metric == "d_R" else 1.0
+        diff = "–" if j.comparison is None else j.comparison.difference.text(scale)
+        means = f"{scale * j.better_mean:.3g} / {scale * j.worse_mean:.3g}"
+        holds = (
+            "" if j.comparison is not None else (" (means: holds)" if j.better_mean < j.worse_mean else " (means: not)")
+        )
+        who = f"{c.statement}{' (ours)' if c.ours else ''}"
+        lines.append(f"| {who} | {c.source} | {c.paper or '–'} | {means} | {diff} | **{j.verdict}**{holds} |")
+    unit = "d_R ×10⁻⁴ m²; smoothness: the largest step over the path length."
+    return lines + ["", unit]

@@ -1,0 +1,79 @@
+"""Intervals over seeds and shapes, and paired comparisons (opnet.experiments.stats): coverage on data whose truth is
+known, the paired test's power where an unpaired one has none, and bad input named."""
+
+import numpy as np
+import pytest
+
+from opnet.experiments import stats
+
+
+def test_the_interval_holds_the_mean_and_covers_the_truth_about_as_often_as_it_says():
+    rng = np.random.default_rng(0)
+    covered = 0
+    for trial in range(200):
+        x = 1.0 + rng.normal(0, 0.3, (3, 1)) + rng.normal(0, 1.0, (3, 60))  # seeds shift, shapes scatter
+        iv = stats.interval(x, n_boot=400, seed=trial)
+        assert iv.low <= iv.mean <= iv.high and iv.mean == pytest.approx(x.mean())
+        covered += iv.low <= 1.0 <= iv.high
+    assert 0.80 <= covered / 200 <= 1.0  # a bootstrap of 3 seeds is a little narrow; never far off
+    iv = stats.interval(np.full((2, 5), 4.0))
+    assert (iv.low, iv.mean, iv.high, iv.std) == (4.0, 4.0, 4.0, 0.0) and iv.per_seed == (4.0, 4.0)
+    assert stats.interval(np.arange(10.0)).std == 0.0  # one seed: no spread between trainings
+    assert stats.interval(np.arange(10.0)).text() == f"4.5 ± {stats.interval(np.arange(10.0)).half_width:.2g}"
+
+
+def test_a_paired_comparison_sees_a_small_shift_that_the_shapes_scatter_would_hide():
+    rng = np.random.default_rng(1)
+    hard = rng.gamma(2.0, 1.0, (3, 80))  # each shape's own difficulty, shared by both methods
+    a, b = hard + 0.05, hard + rng.normal(0, 0.01, hard.shape)
+    c = stats.paired_difference(a, b, names=("mine", "theirs"))
+    assert c.verdict == "b better" and c.difference.low > 0 and "mine − theirs" in c.text()
+    assert stats.paired_difference(b, a).verdict == "a better"
+    unpaired = stats.interval(a).low <= stats.interval(b).high  # the intervals of each overlap...
+    assert unpaired  # ...so comparing them would show nothing; the pairing does
+    same = stats.paired_difference(hard, hard + rng.normal(0, 0.01, hard.shape))
+    assert same.verdict == "no difference shown" and same.difference.low < 0 < same.difference.high
+
+
+def test_bad_measurements_are_named():
+    with pytest.raises(ValueError, match="same seeds and shapes"):
+        stats.paired_difference(np.ones((3, 5)), np.ones((2, 5)))
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        stats.interval([1.0, np.nan])
+    with pytest.raises(ValueError, match=r"\(seeds, shapes\)"):
+        stats.interval(np.ones((2, 3, 4)))
+    with pytest.raises(ValueError, match="level"):
+        stats.interval([1.0, 2.0], level=95)
+
+
+def test_the_ablation_trains_each_seed_and_its_rows_carry_intervals_and_comparisons(tiny_collection, tmp_path):
+    pytest.importorskip("torch")  # trains networks (the net extra)
+    import opnet
+
+    coll = tiny_collection()
+    sets = [["area"], ["area", "extrinsic"]]
+    fast = dict(batch_size=8, hidden=16, epochs=2)
+    table = opnet.ablation(coll, sets, depths=[1], seeds=2, run_root=tmp_path, progress=False, **fast)
+    nets = [r for r in table if r.get("baseline") is None]
+    assert [(r["channels"], r["seeds"]) for r in nets] == [(c, [0, 1]) for c in sets]
+    for r in nets:  # the mean of the seeds' means, inside its interval; each seed its own run
+        assert r["d_R"] == pytest.approx(np.mean(r["d_R_seeds"])) and r["d_R_low"] <= r["d_R"] <= r["d_R_high"]
+        assert len(r["runs"]) == 2 and r["runs"][1].endswith("-s1") and (tmp_path / r["runs"][1]).is_dir()
+        assert np.shape(r["d_R_shapes"]) == (2, len(coll.indices("val")))
+    assert " ± " in table.markdown()
+    c = table.compare(["area", "extrinsic"], ["area"])
+    assert c.verdict in stats.VERDICTS and c.difference.low <= c.difference.mean <= c.difference.high
+    nn = stats.compare(
+        table, dict(channels=["area"], depth=1), dict(baseline="nearest_neighbour", channels=["area"]), split="val"
+    )
+    assert nn.verdict in stats.VERDICTS  # a baseline of one row stands beside each seed
+    again = opnet.ablation(
+        coll, sets[:1], depths=[1], seeds=2, run_root=tmp_path, progress=False, baselines=False, **fast
+    )
+    assert again[0]["d_R_seeds"] == nets[0]["d_R_seeds"]  # both seeds' runs loaded, not trained again
+    with pytest.raises(TypeError, match="seeds="):
+        opnet.ablation(coll, sets, seed=3, **fast)
+    with pytest.raises(ValueError, match="single out one"):
+        stats.compare(table, dict(depth=1), dict(depth=1), split="val")
+    with pytest.raises(ValueError, match="seeds must be distinct"):
+        opnet.experiments.RunSpec(seeds=(0, 0))
