@@ -173,7 +173,8 @@ def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> l
     figures = out / "figures" if config.figures else None
     extra = dict(preset=config.preset)
     first = [e for e in plan.entries if e.table != "ablation"]
-    rows, done = run_entries(first, ws, extra=extra, saved=save)
+    each = config.seeds > 1  # rows then hold their per-shape errors: the claims compare them
+    rows, done = run_entries(first, ws, extra=extra, saved=save, per_shape=each)
     if figures is not None:
         _figures(figures, ws, done, config.refine)
     for step in plan.steps:
@@ -181,7 +182,12 @@ def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> l
         bar.update(1)
         save(rows)
     more, _ = run_entries(
-        [e for e in plan.entries if e.table == "ablation"], ws, extra=extra, done=done, saved=lambda r: save(rows + r)
+        [e for e in plan.entries if e.table == "ablation"],
+        ws,
+        extra=extra,
+        done=done,
+        saved=lambda r: save(rows + r),
+        per_shape=each,
     )
     rows = save(rows + more)
     if figures is not None:
@@ -205,6 +211,7 @@ def _context(config: ReproduceConfig, coll, device, plan) -> dict:
         splits={s: int(np.sum(coll.split == s)) for s in ("train", "val", "test", "test_subjects")},
         eval_subset=int(len(coll.eval_subset)),
         plan=plan.keys(),
+        seeds=config.seeds,
     )
 
 
@@ -218,7 +225,7 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
             ws.coll,
             {o.entry.name: o.runs[0].net for o in decoders},
             ws.budget,
-            fields={o.entry.name: {"entry": o.entry.key, **o.entry.run_fields()} for o in decoders},
+            fields={o.entry.name: {"entry": o.entry.key, **o.entry.run_fields(), **_first_seed(o)} for o in decoders},
             comp=ws.data("comp"),
             data_root=ws.data_root,
             progress=ws.progress,
@@ -231,11 +238,17 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
     return applications_rows(ws.coll, algebras, ws.budget, out=figures, progress=ws.progress)
 
 
+def _first_seed(outcome) -> dict:
+    """The run fields of a replicated entry's first seed, which the steps decode with (none for one run)."""
+    if not outcome.entry.replicated:
+        return {}
+    return dict(run=outcome.runs[0].spec.run_name, seeds=[outcome.runs[0].spec.seed])
+
+
 def _figures(figures: Path, ws: Workspace, done: dict, refine: bool) -> None:
     """The figures drawn from the networks: training curves, reconstructions, refinement."""
-    trained = [
-        o for o in done.values() if len(o.runs) == 1 and not o.entry.draws and o.entry.trained_on in ("base", "comp")
-    ]
+    single = [o for o in done.values() if len(o.runs) == 1 or o.entry.replicated]  # a replicated one: its first seed
+    trained = [o for o in single if not o.entry.draws and o.entry.trained_on in ("base", "comp")]
     histories = {o.entry.name: o.runs[0].history for o in trained}
     paper, nn = done["int+ext"].method, done["nn"].method
     table1_figures(figures.parent, ws.coll, paper, nn, histories)

@@ -164,7 +164,7 @@ class Entry:
     @property
     def replicated(self) -> bool:
         """Whether it trains its network with several seeds, each evaluated apart (:attr:`RunSpec.seeds`)."""
-        return len(self.runs) == 1 and len(self.runs[0].seeds) > 1
+        return len(self.runs) == 1 and bool(self.runs[0].seeds)
 
     @property
     def spec(self) -> RunSpec:

@@ -222,7 +222,7 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
     if not earlier or earlier[1] is None:
         return rows, context
     old_rows, old = earlier
-    same = ("preset", "budget", "splits")
+    same = ("preset", "budget", "splits", "seeds")
     if any(old.get(key) != context.get(key) for key in same) or _shapes(old) != _shapes(context):
         import warnings
 

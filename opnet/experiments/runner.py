@@ -309,6 +309,8 @@ def build_method(entry, ws: Workspace, done: dict) -> Outcome:
             raise ValueError(f"entry {entry.key!r} refines {entry.refines!r}, which has not run before it.")
         start = done[entry.refines]
         fields = {k: v for k, v in start.entry.run_fields().items() if k != "channels"}
+        if start.entry.replicated:  # the first seed's output is refined (seconds per shape): its run, its seed
+            fields |= dict(run=start.runs[0].spec.run_name, seeds=[start.runs[0].spec.seed])
         info = {**where, **fields, "refined": True, **_untrained(ws.device)}
         options = refine_options(ws.budget, ws.device)
         return Outcome(entry, refined_method(start.method, tested, name=entry.name, info=info, **options), [], tested)
@@ -326,10 +328,13 @@ def build_method(entry, ws: Workspace, done: dict) -> Outcome:
     return Outcome(entry, method, runs, tested)
 
 
-def run_entries(entries, ws: Workspace, *, extra: dict | None = None, done: dict | None = None, saved=None):
+def run_entries(
+    entries, ws: Workspace, *, extra: dict | None = None, done: dict | None = None, saved=None, per_shape: bool = False
+):
     """Build each entry's method (:func:`build_method`) and evaluate it on its test sets into rows; returns the rows
     and the outcomes (key → :class:`Outcome`). ``saved(rows)``: called after each entry with the rows so far (so an
-    interruption loses one entry's work at most).
+    interruption loses one entry's work at most). ``per_shape``: every row holds its per-shape errors (a row over
+    seeds always does), so that a baseline can be compared with the networks (:func:`opnet.experiments.compare`).
     """
     from ..evaluate import test_sets_for
     from .stats import summarize_seeds
@@ -344,7 +349,7 @@ def run_entries(entries, ws: Workspace, *, extra: dict | None = None, done: dict
             each = [evaluate(outcome.tested_on, [m], test_sets, extra=extra, per_shape=True) for m in outcome.methods]
             rows += [dict(summarize_seeds(list(split)), run=entry.run_fields()["run"]) for split in zip(*each)]
         else:
-            rows += evaluate(outcome.tested_on, [outcome.method], test_sets, extra=extra)
+            rows += evaluate(outcome.tested_on, [outcome.method], test_sets, extra=extra, per_shape=per_shape)
         if ws.bar is not None:
             ws.bar.update(1)
         if saved is not None:

@@ -76,7 +76,11 @@ class RunSpec:
         if self.architecture == "operatornet" and not channels:
             raise ValueError("an operatornet run needs channels (e.g. ('area', 'extrinsic')).")
         object.__setattr__(self, "channels", () if self.architecture == "pointnet" else channels)
-        seeds = (self.seeds,) if isinstance(self.seeds, int) else tuple(self.seeds)
+        if isinstance(self.seeds, int):
+            raise TypeError(
+                f"seeds lists the seeds, e.g. (0, 1, 2) (tuple(range({self.seeds})) for {self.seeds} of them)."
+            )
+        seeds = tuple(self.seeds)
         if not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds) or len(set(seeds)) != len(
             seeds
         ):

@@ -1,14 +1,17 @@
 """Intervals over seeds and test shapes, and paired comparisons with a verdict.
 
 A measurement of a method is a ``(seeds, shapes)`` array: one error per test shape for each training seed (the same
-shapes for every seed). Its interval is a two-level bootstrap: each resample draws the seeds with replacement, then
-the shapes with replacement (the same shapes for every drawn seed), and takes the mean; the interval is the
-central ``level`` of those means (percentiles). It so carries both sources of spread: another training, and other
-test shapes. With one seed it is the bootstrap over shapes alone, and says nothing of another training.
+shapes for every seed). Its interval holds both sources of spread, another training and other test shapes: the mean
+± ``q · se``, with ``se² = var(seed means) / S + var(shape means) / N`` (the seeds' means over the shapes, the shapes'
+means over the seeds; a little conservative, as the seed-by-shape noise counts in both) and ``q`` Student's
+quantile with ``S − 1`` degrees of freedom (so that three seeds give a wide interval, as they should), the normal one
+for a single seed, whose interval then holds the shapes alone and says nothing of another training. Shapes are
+taken as independent; held-out sequences of one subject are not quite, so the interval is if anything narrow.
 
 A comparison of two methods is paired: the same test shapes, seed by seed (seed ``s`` of one beside seed ``s`` of the
 other), so the shapes' own difficulty cancels. Its verdict is ``"a better"`` or ``"b better"`` when the interval of
-the mean difference excludes 0 (errors: lower is better), else ``"no difference shown"``.
+the mean difference excludes 0 (errors: lower is better), else ``"no difference shown"``; a trained method of one
+seed is never called better (one training cannot tell another training's spread).
 """
 
 from __future__ import annotations
@@ -19,7 +22,6 @@ import numpy as np
 
 __all__ = [
     "LEVEL",
-    "BOOTSTRAP",
     "METRICS",
     "VERDICTS",
     "Interval",
@@ -32,8 +34,6 @@ __all__ = [
 
 #: The interval's coverage.
 LEVEL = 0.95
-#: Bootstrap resamples.
-BOOTSTRAP = 2000
 #: The verdicts of a comparison of errors (lower is better).
 VERDICTS = ("a better", "b better", "no difference shown")
 
@@ -43,7 +43,7 @@ class Interval:
     """The mean of a ``(seeds, shapes)`` measurement, its spread and its interval.
 
     ``per_seed``: each seed's mean over the shapes; ``std``: their standard deviation (``ddof=1``; 0 for one seed);
-    ``low``, ``high``: the bootstrap interval of the mean (see the module's docstring); ``half_width``: half its width.
+    ``low``, ``high``: the interval of the mean (see the module's docstring); ``half_width``: half its width.
     """
 
     mean: float
@@ -88,37 +88,26 @@ def _as_measure(values, name: str = "values") -> np.ndarray:
     return x
 
 
-def _bootstrap_means(x: np.ndarray, n_boot: int, rng: np.random.Generator) -> np.ndarray:
-    """Means of ``n_boot`` two-level resamples of ``x`` ``(S, N)``: seeds, then shapes, with replacement."""
-    S, N = x.shape
-    seeds = rng.integers(0, S, (n_boot, S))
-    shapes = rng.integers(0, N, (n_boot, N))
-    out = np.empty(n_boot)
-    for start in range(0, n_boot, 256):  # in blocks: (block, S, N) at a time
-        sl = slice(start, start + 256)
-        drawn = x[:, shapes[sl]]  # (S, block, N): every seed on each resample's shapes
-        per_seed = drawn.mean(axis=2).T  # (block, S)
-        out[sl] = np.take_along_axis(per_seed, seeds[sl], axis=1).mean(axis=1)  # the drawn seeds' mean
-    return out
+def interval(values, *, level: float = LEVEL) -> Interval:
+    """The :class:`Interval` of a ``(seeds, shapes)`` measurement (a 1-d array: one seed), as the module says."""
+    from scipy import stats as scipy_stats
 
-
-def interval(values, *, level: float = LEVEL, n_boot: int = BOOTSTRAP, seed: int = 0) -> Interval:
-    """The :class:`Interval` of a ``(seeds, shapes)`` measurement (a 1-d array: one seed)."""
     if not 0 < level < 1:
         raise ValueError(f"level must be between 0 and 1 (e.g. 0.95), got {level!r}.")
     x = _as_measure(values)
-    means = _bootstrap_means(x, n_boot, np.random.default_rng(seed))
-    low, high = np.quantile(means, [(1 - level) / 2, (1 + level) / 2])
-    per_seed = x.mean(axis=1)
-    std = float(per_seed.std(ddof=1)) if len(per_seed) > 1 else 0.0
-    return Interval(float(x.mean()), std, float(low), float(high), tuple(map(float, per_seed)), x.shape[1], level)
+    S, N = x.shape
+    per_seed, per_shape = x.mean(axis=1), x.mean(axis=0)
+    se2 = (per_seed.var(ddof=1) / S if S > 1 else 0.0) + (per_shape.var(ddof=1) / N if N > 1 else 0.0)
+    q = scipy_stats.t.ppf((1 + level) / 2, S - 1) if S > 1 else scipy_stats.norm.ppf((1 + level) / 2)
+    mean, half = float(x.mean()), float(q * np.sqrt(se2))
+    std = float(per_seed.std(ddof=1)) if S > 1 else 0.0
+    return Interval(mean, std, mean - half, mean + half, tuple(map(float, per_seed)), N, level)
 
 
-def paired_difference(
-    a, b, *, names=("a", "b"), level: float = LEVEL, n_boot: int = BOOTSTRAP, seed: int = 0
-) -> Comparison:
+def paired_difference(a, b, *, names=("a", "b"), level: float = LEVEL, verdict: bool = True) -> Comparison:
     """The paired comparison of two ``(seeds, shapes)`` measurements of errors on the same shapes (seed ``s`` of
-    ``a`` beside seed ``s`` of ``b``): the interval of the mean of ``a − b`` and the verdict (:data:`VERDICTS`).
+    ``a`` beside seed ``s`` of ``b``): the interval of the mean of ``a − b`` and the verdict (:data:`VERDICTS`;
+    ``verdict=False``: always ``"no difference shown"``, for a comparison that cannot tell).
     """
     x, y = _as_measure(a, "a"), _as_measure(b, "b")
     if x.shape != y.shape:
@@ -126,9 +115,9 @@ def paired_difference(
             f"a paired comparison needs the same seeds and shapes on both sides, got {x.shape} and {y.shape}: "
             "evaluate both on the same test set, with as many seeds."
         )
-    d = interval(x - y, level=level, n_boot=n_boot, seed=seed)
-    verdict = VERDICTS[0] if d.high < 0 else VERDICTS[1] if d.low > 0 else VERDICTS[2]
-    return Comparison(names[0], names[1], d, verdict)
+    d = interval(x - y, level=level)
+    said = VERDICTS[2] if not verdict else VERDICTS[0] if d.high < 0 else VERDICTS[1] if d.low > 0 else VERDICTS[2]
+    return Comparison(names[0], names[1], d, said)
 
 
 #: The errors a row summarises over seeds (each with its ``<metric>_shapes``: per seed, per shape).
@@ -201,6 +190,13 @@ def compare(rows, a: dict, b: dict, *, metric: str = "d_R", split: str = "test",
     if ra.get("shapes") != rb.get("shapes"):
         raise ValueError("the two rows were measured on other shapes; compare rows of one collection and test set.")
     x, y = _errors(ra, metric), _errors(rb, metric)
-    if len(x) != len(y) and 1 in (len(x), len(y)):  # a deterministic method beside every seed of the other
-        x, y = np.broadcast_arrays(x, y)
-    return paired_difference(x, y, names=(ra.get("method"), rb.get("method")), level=level)
+    trained = [r for r, v in ((ra, x), (rb, y)) if r.get("baseline") is None]
+    if len(x) != len(y):
+        fixed = [r for r, v in ((ra, x), (rb, y)) if len(v) == 1 and r.get("baseline") is not None]
+        if not fixed:
+            raise ValueError(f"the rows hold {len(x)} and {len(y)} seeds: compare rows trained with the same seeds.")
+        x, y = np.broadcast_arrays(x, y)  # a baseline (deterministic) beside every seed of the other
+    elif len(trained) == 2 and ra.get("seeds") != rb.get("seeds"):
+        raise ValueError(f"the rows' seeds differ ({ra.get('seeds')} and {rb.get('seeds')}): pair them seed by seed.")
+    enough = all(len(_errors(r, metric)) > 1 for r in trained)  # one training cannot tell another's spread
+    return paired_difference(x, y, names=(ra.get("method"), rb.get("method")), level=level, verdict=enough)
