@@ -333,3 +333,11 @@ def test_seeds_replicate_the_networks_only_when_asked():
         not {"bodies-shape-poses-quarter", "nn"} & replicated
     )  # an ensemble keeps its members; baselines train nothing
     assert three["int+ext"].spec.seeds == (0, 1, 2) and len(three["bodies-shape-poses-quarter"].runs) == 2
+
+
+def test_results_of_other_seeds_are_not_merged_but_those_of_before_seeds_are():
+    context = dict(preset="quick", budget={}, splits={}, collection="c")
+    old = ([dict(table="table1", method="m", run="r", split="test")], dict(context))  # no "seeds": one each
+    assert report.merge_results(old, [], dict(context, seeds=1))[0] == old[0]
+    with pytest.warns(UserWarning, match="replaced, not merged"):
+        assert report.merge_results(old, [], dict(context, seeds=3))[0] == []

@@ -216,19 +216,20 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
     ``--no-maps`` ...) adds to the folder's results instead of losing them; ``context`` then lists under
     ``"earlier"`` the earlier call (its date, machine, wall time and the tables of the rows kept) and the calls it
     listed itself: a chain of calls is listed whole, without telling which of them measured each kept row.
-    Results of another preset, budget or collection are not merged (a warning says so): ``(rows, context)`` are
-    returned as they are.
+    Results of another preset, budget, collection or number of seeds are not merged (a warning says so): ``(rows,
+    context)`` are returned as they are.
     """
     if not earlier or earlier[1] is None:
         return rows, context
     old_rows, old = earlier
-    same = ("preset", "budget", "splits", "seeds")
-    if any(old.get(key) != context.get(key) for key in same) or _shapes(old) != _shapes(context):
+    same = ("preset", "budget", "splits")
+    seeds = old.get("seeds", 1) != context.get("seeds", 1)  # files of before seeds were recorded: one seed each
+    if any(old.get(key) != context.get(key) for key in same) or _shapes(old) != _shapes(context) or seeds:
         import warnings
 
         warnings.warn(
-            f"results.json holds {len(old_rows)} rows of another preset, budget or collection; they are replaced, "
-            "not merged (run into another folder to keep them).",
+            f"results.json holds {len(old_rows)} rows of another preset, budget, collection or number of seeds; they "
+            "are replaced, not merged (run into another folder to keep them).",
             stacklevel=2,
         )
         return rows, context
