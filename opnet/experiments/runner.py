@@ -24,6 +24,7 @@ __all__ = [
     "Workspace",
     "build_method",
     "run_entries",
+    "evaluate_seeds",
 ]
 
 
@@ -138,6 +139,16 @@ def evaluate_runs(runs, collection, test_sets=("val",), *, extra: dict | None = 
     return Results(evaluate(collection, [run.method(collection) for run in runs], test_sets, extra=extra))
 
 
+def evaluate_seeds(collection, methods, test_sets, *, extra: dict | None = None) -> list[dict]:
+    """One row per test set over ``methods``, one trained network per seed: each evaluated on the same shapes with
+    its per-shape errors, then summarised (:func:`opnet.experiments.stats.summarize_seeds`).
+    """
+    from .stats import summarize_seeds
+
+    each = [evaluate(collection, [m], test_sets, extra=extra, per_shape=True) for m in methods]
+    return [summarize_seeds(list(split)) for split in zip(*each)]
+
+
 def ablation(
     collection,
     channel_sets,
@@ -179,8 +190,6 @@ def ablation(
     """
     from tqdm.auto import tqdm
 
-    from .stats import summarize_seeds
-
     if "seed" in train_options:
         raise TypeError("ablation trains every network with each of seeds=: give seeds=(s,) for one seed s.")
     seeds = tuple(range(seeds)) if isinstance(seeds, int) and not isinstance(seeds, bool) else tuple(seeds)
@@ -194,15 +203,13 @@ def ablation(
     bar = tqdm(total=len(specs) * len(seeds), desc="ablation", unit="network", disable=progress is False)
     rows = Results()
     for spec in specs:
-        per_seed = []
+        methods = []
         for replicate in spec.replicates():
             bar.set_postfix_str(f"{spec.label}, seed {replicate.seed}")
             run = train_run(replicate, collection, run_root, device=device, progress=progress is True)
-            method = run.method(collection, seed=replicate.seed)
-            per_seed.append(evaluate(collection, [method], test_sets, per_shape=True))
+            methods.append(run.method(collection, seed=replicate.seed))
             bar.update(1)
-        for split_rows in zip(*per_seed):  # one row per test set, over the seeds
-            rows.append(summarize_seeds(list(split_rows)))
+        rows += evaluate_seeds(collection, methods, test_sets)
     bar.close()
     if baselines:
         seen = []
@@ -337,7 +344,6 @@ def run_entries(
     seeds always does), so that a baseline can be compared with the networks (:func:`opnet.experiments.compare`).
     """
     from ..evaluate import test_sets_for
-    from .stats import summarize_seeds
 
     done = {} if done is None else done
     rows = []
@@ -345,9 +351,8 @@ def run_entries(
         outcome = build_method(entry, ws, done)
         done[entry.key] = outcome
         test_sets = entry.test_sets or test_sets_for(outcome.tested_on)
-        if outcome.methods:  # each seed evaluated on the same shapes, then one row per test set over them
-            each = [evaluate(outcome.tested_on, [m], test_sets, extra=extra, per_shape=True) for m in outcome.methods]
-            rows += [dict(summarize_seeds(list(split)), run=entry.run_fields()["run"]) for split in zip(*each)]
+        if outcome.methods:  # one row per test set over the seeds (its run: all their runs, joined)
+            rows += evaluate_seeds(outcome.tested_on, outcome.methods, test_sets, extra=extra)
         else:
             rows += evaluate(outcome.tested_on, [outcome.method], test_sets, extra=extra, per_shape=per_shape)
         if ws.bar is not None:
