@@ -79,7 +79,7 @@ def measure(args) -> dict:
     coll = opnet.data.load_collection("humans", args.preset)
     out = Path(args.reproduce_dir).expanduser() if args.reproduce_dir else None
     out = out or notebook_out(args.preset)
-    run = run_path(out, "table1", opnet.KINDS, 1)
+    run = run_path(out, coll, "table1", opnet.KINDS, 1)
     net = opnet.train.load_model(run, coll)
     idx = coll.indices("val")[:: args.every]
     gt = coll.vertices[idx].astype(np.float64)

@@ -441,7 +441,9 @@ def _subset(method: ShapeAlgebra, n: int) -> int:
     return n if method.max_shapes is None else min(n, method.max_shapes)
 
 
-def analogy_benchmark(collection, methods, quadruples, *, progress: bool | None = None) -> list[dict]:
+def analogy_benchmark(
+    collection, methods, quadruples, *, progress: bool | None = None, per_shape: bool = False
+) -> list[dict]:
     """One row per (method, quadruple kind): ``method``, ``kind``, ``n``, the mean and median ``d_R`` (length²),
     ``d_V``, ``d_E`` of the synthesised ``X`` against the true one, and ``d_R_direct``: the same method's error on
     ``X`` given ``X`` itself (its reconstruction floor: what is left is the algebra's error). Refined methods add
@@ -449,6 +451,8 @@ def analogy_benchmark(collection, methods, quadruples, *, progress: bool | None 
     :attr:`~ShapeAlgebra.fields`.
 
     ``methods``: :class:`ShapeAlgebra` objects; ``quadruples``: a :class:`Quadruples` or a list of them.
+    ``per_shape``: each row also holds ``shapes`` (the questions' indices) and the per-question ``d_R_shapes``,
+    ``d_V_shapes``, ``d_E_shapes``, for paired comparisons (:func:`opnet.experiments.compare`).
     """
     from tqdm.auto import tqdm
 
@@ -462,6 +466,9 @@ def analogy_benchmark(collection, methods, quadruples, *, progress: bool | None 
             err = shape_errors(Q.X[:q], X, collection.faces)
             row = dict(method=m.name, kind=Q.kind, n=int(q), scheme=m.scheme if m.space == "operators" else "latent")
             row.update(summarize(err))
+            if per_shape:
+                row["shapes"] = list(range(q))
+                row |= {f"{key}_shapes": np.asarray(err[key], np.float64).tolist() for key in ("d_R", "d_V", "d_E")}
             row["d_R_direct"] = float(np.mean(d_R(Q.X[:q], m.reconstruct(Q.X[:q]))))
             if m.unrefined is not None:
                 row["d_R_before"] = float(np.mean(d_R(Q.X[:q], m.unrefined.analogy(Q.A[:q], Q.B[:q], Q.C[:q]))))
@@ -500,13 +507,17 @@ def path_metrics(path, truth, faces) -> dict:
     )
 
 
-def interpolation_benchmark(collection, methods, paths, *, progress: bool | None = None) -> list[dict]:
+def interpolation_benchmark(
+    collection, methods, paths, *, progress: bool | None = None, per_shape: bool = False
+) -> list[dict]:
     """One row per (method, path kind): ``method``, ``kind``, ``scheme``, ``n_paths``, ``steps`` and the means over
     the paths of :func:`path_metrics` (plus the worst ``smoothness``, ``smoothness_max``). A first row per kind,
     ``"Ground truth"``, scores the true paths themselves (their own distortion: what bending costs in edge lengths).
     A method's rows also hold its :attr:`~ShapeAlgebra.fields`.
 
-    ``paths``: a :class:`Paths` or a list of them; ``methods``: :class:`ShapeAlgebra` objects.
+    ``paths``: a :class:`Paths` or a list of them; ``methods``: :class:`ShapeAlgebra` objects. ``per_shape``: each
+    row also holds ``shapes`` (the paths' indices) and each metric per path (``smoothness_shapes``...), for paired
+    comparisons (:func:`opnet.experiments.compare`).
     """
     from tqdm.auto import tqdm
 
@@ -525,6 +536,9 @@ def interpolation_benchmark(collection, methods, paths, *, progress: bool | None
                 row["scheme"] = m.scheme if m.space == "operators" else "latent"
             for key in metrics[0]:
                 row[key] = float(np.nanmean([r[key] for r in metrics]))
+            if per_shape:
+                row["shapes"] = list(range(n))
+                row |= {f"{key}_shapes": [float(r[key]) for r in metrics] for key in metrics[0]}
             row["smoothness_max"] = float(np.nanmax([r["smoothness"] for r in metrics]))
             row["stuck_paths"] = int(np.sum([np.isnan(r["smoothness"]) for r in metrics]))
             rows.append(row if m is None else {**row, **m.fields})

@@ -446,16 +446,22 @@ def plot_refinement_curves(curves: dict, *, axes=None):
     return axes[0].figure
 
 
-def plot_ablation(table, rows, columns, *, title="d_R on test (×10⁻⁴)", ax=None):
-    """Heat map of an ablation table ``(len(rows), len(columns))`` with its values written in the cells."""
+def plot_ablation(table, rows, columns, *, title="d_R on test (×10⁻⁴)", ax=None, half_widths=None):
+    """Heat map of an ablation table ``(len(rows), len(columns))`` with its values written in the cells;
+    ``half_widths`` (same shape, NaN where unknown): each cell's interval, written ``± h`` under its value.
+    """
     table = np.asarray(table, dtype=float)
+    half = np.full_like(table, np.nan) if half_widths is None else np.asarray(half_widths, dtype=float)
+    if half.shape != table.shape:
+        raise ValueError(f"half_widths must have the table's shape {table.shape}, got {half.shape}.")
     fig, ax = _figure_and_axes(ax, (1.1 * len(columns) + 2, 0.6 * len(rows) + 1.5))
     im = ax.imshow(table, cmap="viridis_r", aspect="auto")
     lo, hi = np.nanmin(table), np.nanmax(table)
     for (i, j), v in np.ndenumerate(table):
         if np.isfinite(v):  # white on the dark (high) end of viridis_r, black on the light end
             dark = hi > lo and (v - lo) / (hi - lo) > 0.55
-            ax.text(j, i, f"{v:.3g}", ha="center", va="center", color="white" if dark else "black", fontsize=9)
+            text = f"{v:.3g}" + (f"\n± {half[i, j]:.2g}" if np.isfinite(half[i, j]) else "")
+            ax.text(j, i, text, ha="center", va="center", color="white" if dark else "black", fontsize=9)
     ax.set_xticks(range(len(columns)), columns)
     ax.set_yticks(range(len(rows)), rows)
     ax.set_title(title)

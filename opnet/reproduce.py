@@ -22,17 +22,15 @@ again, :func:`opnet.experiments.report.merge_results`):
 
 from __future__ import annotations
 
-import hashlib
-import json
-import os
-import platform
 import time
+import warnings
 from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
 from . import __version__
+from .apps import ANALOGY_KINDS, PATH_KINDS
 from .experiments.baselines import FUNCCHAR, REFINE
 from .experiments.config import ReproduceConfig
 from .experiments.figures import (
@@ -57,6 +55,7 @@ from .experiments.plan import (
     select,
     spec,
 )
+from .experiments.provenance import code_version, current, inputs_digest, machine, record, run_checkpoints
 from .experiments.report import ablation_table, merge_results, read_results, results_markdown, write_results
 from .experiments.runner import Workspace, run_entries
 from .experiments.spec import RunSpec
@@ -66,6 +65,7 @@ from .experiments.steps import (
     discretisation_indices,
     discretisation_rows,
     refinement_curves,
+    seeded_applications_rows,
 )
 from .inner_products import get_inner_product
 
@@ -118,18 +118,8 @@ def plan_for(config: ReproduceConfig):
     for text in config.ablation_channels:
         channels = RunSpec(channels=text).channels  # classes and "module:Class" imported: named by their name
         sets.setdefault(ablation_label(channels), channels)
-    return select(declare(config.training, ablation_sets=sets, seeds=config.seeds), config.parts())
-
-
-def _machine(device) -> str:
-    import torch
-
-    if device.type == "cuda":
-        return f"{torch.cuda.get_device_name(device)} (CUDA), torch {torch.__version__}"
-    return (
-        f"CPU ({platform.machine()}, {os.cpu_count()} cores, {torch.get_num_threads()} torch threads), "
-        f"torch {torch.__version__}"
-    )
+    plan = declare(config.training, ablation_sets=sets, seeds=config.seeds, ablation_grid=config.ablation_grid)
+    return select(plan, config.parts())
 
 
 def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> list[dict]:
@@ -154,6 +144,17 @@ def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> l
     (out / "runs").mkdir(parents=True, exist_ok=True)
     device, t_start = resolve_device(config.device), time.perf_counter()
     earlier = read_results(out) if (out / "results.json").is_file() else None  # kept where not measured again
+    if earlier is not None:  # a row of a training that is no longer its run's current one is measured again
+        checkpoints = run_checkpoints(out / "runs")
+        fresh = [r for r in earlier[0] if current(r, checkpoints)]
+        if len(fresh) < len(earlier[0]):
+            warnings.warn(
+                f"{out / 'results.json'}: {len(earlier[0]) - len(fresh)} of its {len(earlier[0])} rows measured "
+                "trainings that are not their runs' current ones (or record none); they are dropped and measured "
+                "again where this call's plan has them.",
+                stacklevel=2,
+            )
+        earlier = (fresh, earlier[1])
     plan = plan_for(config)
     coll = profile.load(config.preset, config.data_root, progress)
     asked = {(c if isinstance(c, str) else c.name): c for e in plan.entries for s in e.runs for c in s.channels}
@@ -161,34 +162,32 @@ def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> l
     coll = coll.with_channels([*coll.channels, *new]) if new else coll  # computed once, cached beside it
     context = _context(config, coll, device, plan)
 
+    stamp = {k: context[k] for k in ("commit", "date", "machine", "preset")}  # each row's provenance
+    before = earlier[0] if earlier is not None else []
+
     def save(rows):  # results.json/md: this call's rows, and an earlier call's that it did not measure again
         merged, merged_context = merge_results(earlier, rows, context)
         write_results(out, merged, merged_context, time.perf_counter() - t_start)
         return merged
 
     bar = tqdm(total=len(plan), desc="reproduce", unit="step", disable=progress is False)
-    ws = Workspace(
-        coll, profile, out / "runs", budget, device=device, data_root=config.data_root, progress=progress, bar=bar
-    )
+    extra_channels = [ip.name for ip in new]
+    where = dict(device=device, data_root=config.data_root, progress=progress, bar=bar, extra_channels=extra_channels)
+    ws = Workspace(coll, profile, out / "runs", budget, **where)
     figures = out / "figures" if config.figures else None
     extra = dict(preset=config.preset)
     first = [e for e in plan.entries if e.table != "ablation"]
     each = config.seeds > 1  # rows then hold their per-shape errors: the claims compare them
-    rows, done = run_entries(first, ws, extra=extra, saved=save, per_shape=each)
+    options = dict(extra=extra, per_shape=each, context=stamp, earlier=before)
+    rows, done = run_entries(first, ws, saved=save, **options)
     if figures is not None:
         _figures(figures, ws, done, config.refine)
     for step in plan.steps:
-        rows += _step(step.key, ws, done, figures, extra, refine=config.refine)
+        rows += _step(step.key, ws, done, figures, extra, refine=config.refine, context=stamp, earlier=before)
         bar.update(1)
         save(rows)
-    more, _ = run_entries(
-        [e for e in plan.entries if e.table == "ablation"],
-        ws,
-        extra=extra,
-        done=done,
-        saved=lambda r: save(rows + r),
-        per_shape=each,
-    )
+    ablation = [e for e in plan.entries if e.table == "ablation"]
+    more, _ = run_entries(ablation, ws, done=done, saved=lambda r: save(rows + r), **options)
     rows = save(rows + more)
     if figures is not None:
         _row_figures(figures, rows, config)
@@ -204,28 +203,54 @@ def _context(config: ReproduceConfig, coll, device, plan) -> dict:
         preset=config.preset,
         data=config.collection,
         budget=asdict(config.training),
-        machine=_machine(device),
+        machine=machine(device),
         date=time.strftime("%Y-%m-%d"),
+        commit=code_version(),
         opnet_version=__version__,
         collection=repr(coll),
         splits={s: int(np.sum(coll.split == s)) for s in ("train", "val", "test", "test_subjects")},
         eval_subset=int(len(coll.eval_subset)),
         plan=plan.keys(),
         seeds=config.seeds,
+        ablation_grid=config.ablation_grid,
+        training_budget=config.training_budget,
     )
 
 
-def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: bool) -> list[dict]:
+def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: bool, context, earlier) -> list[dict]:
     """The rows of one step of the plan (:class:`~opnet.experiments.plan.Step`): ``discretisation`` or
-    ``applications`` (with the refined algebra when ``refine``).
+    ``applications`` (with the refined algebra when ``refine``), each with its ``provenance`` (the runs it decodes
+    with). An earlier call's rows of the step with the same ``inputs`` digest (the same checkpoints, data and budget)
+    are kept instead of measured again; their figures are then not drawn again either.
     """
     if key == "discretisation":
         decoders = [o for o in done.values() if o.entry.other_meshes]
-        return discretisation_rows(
+        runs = [o.runs[0] for o in decoders]
+        fields = {o.entry.name: {"entry": o.entry.key, **o.entry.run_fields(), **_first_seed(o)} for o in decoders}
+        settings = dict(fields=fields, shapes=ws.budget.discretisation_shapes)
+        drawn = ["discretisation"]
+    else:
+        keys = ("int+ext", "ours", "pointnet")
+        seeds = max(len(done[k].runs) if done[k].entry.replicated else 1 for k in keys)
+        per_seed = [{k: done[k].runs[i if done[k].entry.replicated else 0] for k in keys} for i in range(seeds)]
+        runs = [r for one in per_seed for r in one.values()]
+        settings = dict(refine=refine, budget=[ws.budget.analogies, ws.budget.paths, ws.budget.apps_refine_shapes])
+        settings["refine_steps"] = ws.budget.refine_steps if refine else None
+        drawn = [
+            f"{t}_{kind}" for t, kinds in (("analogy", ANALOGY_KINDS), ("interpolation", PATH_KINDS)) for kind in kinds
+        ]
+    inputs = inputs_digest(
+        step=key, checkpoints=[r.checkpoint for r in runs], data=ws.fingerprint(ws.coll), extra=extra, **settings
+    )
+    kept = [r for r in earlier if (r.get("provenance") or {}).get("inputs") == inputs]
+    if kept and (figures is None or all((figures / f"{name}.png").is_file() for name in drawn)):
+        return kept  # measured by an earlier call on these checkpoints and data, its figures there
+    if key == "discretisation":
+        rows = discretisation_rows(
             ws.coll,
             {o.entry.name: o.runs[0].net for o in decoders},
             ws.budget,
-            fields={o.entry.name: {"entry": o.entry.key, **o.entry.run_fields(), **_first_seed(o)} for o in decoders},
+            fields=fields,
             comp=ws.data("comp"),
             data_root=ws.data_root,
             progress=ws.progress,
@@ -233,9 +258,14 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
             shown=[o.entry.name for o in decoders if o.entry.key in ("int+ext", "comp-int+ext")],
             extra=extra,
         )
-    runs = {k: done[k].runs[0] for k in ("int+ext", "ours", "pointnet")}
-    algebras = application_methods(ws.coll, runs, ws.budget, refine=refine, device=ws.device)
-    return applications_rows(ws.coll, algebras, ws.budget, out=figures, progress=ws.progress)
+    elif seeds > 1:  # each seed's networks on the same questions and paths, summarised with intervals
+        options = dict(refine=refine, device=ws.device, out=figures, progress=ws.progress)
+        rows = seeded_applications_rows(ws.coll, per_seed, ws.budget, **options)
+    else:
+        algebras = application_methods(ws.coll, per_seed[0], ws.budget, refine=refine, device=ws.device)
+        rows = applications_rows(ws.coll, algebras, ws.budget, out=figures, progress=ws.progress)
+    prov = record(runs, context, inputs)
+    return [dict(r, provenance=prov) for r in rows]
 
 
 def _first_seed(outcome) -> dict:
@@ -270,31 +300,36 @@ def _row_figures(figures: Path, rows: list[dict], config: ReproduceConfig) -> No
         plt.close(fig)
 
 
-def run_path(out, table: str, channels, depth: int = 1, variant: str = "paper") -> Path:
-    """The run directory :func:`reproduce` uses for one network: ``out/runs/<table>-<channels>-d<depth>``
-    (:attr:`opnet.experiments.RunSpec.run_name` of :func:`~opnet.experiments.plan.spec`).
+def run_path(out, collection, table: str, channels, depth: int = 1, variant: str = "paper", *, budget=None) -> Path:
+    """The run directory :func:`reproduce` uses for one network of ``collection`` at its preset's budget (or
+    ``budget``, a :class:`~opnet.experiments.plan.Budget`):
+    ``out/runs/<table>-<channels>-d<depth>-<digest>`` (:meth:`opnet.experiments.RunSpec.run_dir` of
+    :func:`~opnet.experiments.plan.spec`; the digest covers the budget, the data and the channels, so another budget
+    or collection is another folder).
 
     ``table`` is ``"table1"``, ``"comp"`` or ``"ablation"``; ``channels`` any channels (a set of built-ins goes by its
     short name ``A+E+C``, ``Ext``...); ``variant="ours"`` adds ``-ours``; ``variant="pointnet"`` names the PointNet
-    autoencoder's run, ``out/runs/<table>-pointnet`` (``channels`` and ``depth`` are then ignored).
+    autoencoder's run, ``out/runs/<table>-pointnet-<digest>`` (``channels`` and ``depth`` are then ignored).
     """
     if out is None:
         raise TypeError("out must be the reproduction's folder (its runs/ hold the networks), not None.")
-    return spec(table, BUDGETS["quick"], channels, depth, variant).run_dir(Path(out) / "runs")
+    preset = collection.meta.get("preset")
+    if budget is None and preset not in BUDGETS:
+        raise ValueError(
+            f"the collection's preset is {preset!r}, which has no budget: pass budget= (e.g. BUDGETS['quick'])."
+        )
+    budget = BUDGETS[preset] if budget is None else budget
+    return spec(table, budget, channels, depth, variant).run_dir(Path(out) / "runs", collection)
 
 
 def notebook_out(preset: str, root=None) -> Path:
     """The reproduction folder the notebooks share at ``preset`` (its ``runs/`` hold their networks):
-    ``<root>/reproduce-<preset>-<digest>``, ``root`` by default :func:`opnet.data.default_root`, the digest 8 hex
-    digits of SHA-256 over the fields of ``BUDGETS[preset]`` that the networks are trained with
-    (:data:`~opnet.experiments.plan.TRAINING_FIELDS`). A release that changes a preset's training budget trains its
-    networks in a new folder, beside those of the old budget (a run directory refuses to resume a run of other settings:
-    :class:`opnet.train.CheckpointError`); the old folder can be deleted.
+    ``<root>/reproduce-<preset>``, ``root`` by default :func:`opnet.data.default_root`. Each network's folder name
+    carries a digest of its budget and data (:meth:`opnet.experiments.RunSpec.run_id`), so a release that changes a
+    preset's budget trains new runs beside the old ones instead of resuming them.
     """
     from .data import default_root
 
     if preset not in BUDGETS:
         raise ValueError(f"unknown preset {preset!r}; use one of {list(BUDGETS)}.")
-    fields = {name: getattr(BUDGETS[preset], name) for name in TRAINING_FIELDS}
-    digest = hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:8]
-    return Path(default_root() if root is None else root) / f"reproduce-{preset}-{digest}"
+    return Path(default_root() if root is None else root) / f"reproduce-{preset}"

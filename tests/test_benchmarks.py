@@ -67,3 +67,39 @@ def test_the_offset_channel_benchmark_trains_each_set_and_reports_it_against_the
     assert sum(r["method"] == "Nearest neighbour" for r in result["rows"]) == len(nets)
     report = bench.report(result)
     assert report.count("| OperatorNet |") == 3 and "Int+Off's d_R / on Int+Ext's" in report
+
+
+def test_the_schedule_rule_takes_the_best_converged_candidate_and_fewer_epochs_within_the_spread():
+    bench = script("schedules")
+
+    def rows(name, epochs, vals, converged=True):
+        return [
+            dict(candidate=name, schedule="x", epochs=epochs, seed=s, best_val=v, converged=converged, train_s=1.0)
+            for s, v in enumerate(vals)
+        ]
+
+    jumping = rows("constant-60", 60, [0.8, 1.2, 1.0], converged=False)  # the lowest seed, but never settles
+    assert bench.choose(jumping + rows("onecycle-60", 60, [1.0, 1.1, 1.2])) == "onecycle-60"
+    # half the epochs within the seeds' spread of the best: the cheaper one; far outside it: the best
+    assert bench.choose(rows("onecycle-30", 30, [1.05, 1.15, 1.25]) + rows("onecycle-60", 60, [1.0, 1.1, 1.2])) == (
+        "onecycle-30"
+    )
+    assert bench.choose(rows("onecycle-30", 30, [2.0, 2.1, 2.2]) + rows("onecycle-60", 60, [1.0, 1.1, 1.2])) == (
+        "onecycle-60"
+    )
+    assert bench.choose(jumping) is None
+
+
+def test_convergence_measures_the_tail_against_the_best():
+    pytest.importorskip("torch")
+    from opnet.train import convergence
+
+    flat = [dict(epoch=e + 1, val_d_R=v) for e, v in enumerate([5.0, 3.0, 2.0, 1.0, 1.02, 1.01, 1.0, 1.03, 1.0, 1.04])]
+    c = convergence(flat)
+    assert c.converged and c.tail_epochs == 1 and c.best_epoch == 4 and c.tail_ratio == pytest.approx(1.04)
+    jumping = flat[:-1] + [dict(epoch=10, val_d_R=1.3)]
+    assert not convergence(jumping).converged and convergence(jumping, tail=0.5).tail_epochs == 5
+    with pytest.raises(ValueError, match="tail must be"):
+        convergence(flat, tail=0)
+    with pytest.raises(ValueError, match="history is empty"):
+        convergence([])

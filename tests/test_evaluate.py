@@ -91,19 +91,23 @@ def test_operatornet_method_decodes_its_channels(coll):
     np.testing.assert_array_equal(m.reconstruct(idx), expected)
 
 
-def test_the_notebooks_share_a_folder_per_budget(tmp_path, monkeypatch):
+def test_the_notebooks_share_a_folder_whose_runs_carry_their_budget(tiny_collection, tmp_path, monkeypatch):
     import dataclasses
 
     first = reproduce.notebook_out("quick", tmp_path)
-    assert first.parent == tmp_path and first.name.startswith("reproduce-quick-")
-    assert reproduce.notebook_out("quick", tmp_path) == first  # the same budget: the same folder, its runs loaded
-    assert reproduce.notebook_out("default", tmp_path) != first
+    assert first == tmp_path / "reproduce-quick" and reproduce.notebook_out("default", tmp_path) != first
+    coll = tiny_collection()
+    coll.meta["preset"] = "quick"  # a generated collection's preset names its budget
+    run = reproduce.run_path(first, coll, "table1", opnet.KINDS)
+    assert run.parent == first / "runs" and run.name.startswith("table1-A+E+C-d1-")
     base = reproduce.BUDGETS["quick"]
     monkeypatch.setitem(reproduce.BUDGETS, "quick", dataclasses.replace(base, analogies=7))
-    assert reproduce.notebook_out("quick", tmp_path) == first  # how many questions are asked trains nothing
+    assert reproduce.run_path(first, coll, "table1", opnet.KINDS) == run  # how many questions are asked trains nothing
     # a release that changes the training budget trains beside the old runs (which would refuse other settings)
     monkeypatch.setitem(reproduce.BUDGETS, "quick", dataclasses.replace(base, epochs=80))
-    assert reproduce.notebook_out("quick", tmp_path).name not in (first.name, "reproduce-quick")
+    assert reproduce.run_path(first, coll, "table1", opnet.KINDS) != run
+    monkeypatch.setitem(reproduce.BUDGETS, "quick", dataclasses.replace(base, schedule="onecycle"))
+    assert reproduce.run_path(first, coll, "table1", opnet.KINDS) != run
     monkeypatch.setenv("OPNET_DATA_DIR", str(tmp_path / "data"))
     assert reproduce.notebook_out("paper").parent == tmp_path / "data"
     with pytest.raises(ValueError, match="unknown preset 'fast'"):
@@ -235,7 +239,8 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_lo
         "quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False, maps=False
     )
     assert {r["method"] for r in rows if r["table"] == "table1"} >= {"PointNet AE"}
-    assert (tmp_path / "runs" / "table1-pointnet" / "best.pt").is_file()
+    (pointnet,) = (tmp_path / "runs").glob("table1-pointnet-*")  # its name and the digest of its budget and data
+    assert (pointnet / "best.pt").is_file()
     names = [
         "OperatorNet (mult.)",
         "OperatorNet (linear)",
@@ -256,7 +261,7 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_lo
     for name in ("interpolation_pose", "interpolation_body", "analogy_pose", "analogy_body"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     assert all(np.isfinite(r["d_R_before"]) for r in ana if "refinement" in r["method"])
-    latest = tmp_path / "runs" / "table1-pointnet" / "latest.pt"
+    latest = pointnet / "latest.pt"
     mtime = latest.stat().st_mtime
     again = reproduce.reproduce(
         "quick",
@@ -277,6 +282,45 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_lo
     assert "analogy" in reproduce.read_results(tmp_path)[1]["earlier"][0]["tables"]  # and said to come from before
 
 
+def test_reproduce_with_seeds_gives_the_applications_intervals_and_judges_their_claims(
+    humans, tmp_path, profile_loads, monkeypatch
+):
+    """With seeds, every network's analogy and interpolation rows are summarised over its trainings, on the same
+    questions and paths, so that the paper's application claims are judged by paired comparisons."""
+    from opnet.experiments import claims
+
+    profile_loads("humans", humans)
+    budget = reproduce.Budget(
+        epochs=1, ablation_epochs=1, batch_size=64, hidden=16, pointnet_epochs=1, analogies=4, paths=2
+    )
+    options = dict(budget=budget, device="cpu", progress=False, ablation=False, maps=False, bodies=False)
+    rows = reproduce.reproduce("quick", tmp_path, seeds=2, refine=False, figures=False, **options)
+    apps = [r for r in rows if r["table"] in ("analogy", "interpolation") and r.get("run") is not None]
+    assert apps and all(r["seeds"] == [0, 1] and len(r["provenance"]["runs"]) == 6 for r in apps)
+    ana = next(r for r in apps if r["table"] == "analogy" and r["method"] == "PointNet AE" and r["kind"] == "pose")
+    assert np.shape(ana["d_R_shapes"]) == (2, 4) and ana["d_R_low"] <= ana["d_R"] <= ana["d_R_high"]
+    itp = next(r for r in apps if r["table"] == "interpolation" and r["method"] == "OperatorNet (linear)")
+    assert np.shape(itp["smoothness_shapes"]) == (2, 2) and itp["smoothness_seeds"] is not None
+    nn = [r for r in rows if r["table"] == "analogy" and r.get("baseline") == "nearest_neighbour"]
+    assert len(nn) == 2 and "seeds" not in nn[0]  # a baseline is the same in every seed: one row
+    judged = {j.claim.key: j for j in claims.judge_all(rows, claims.CLAIMS)}
+    assert judged["analogy-pose-below-pointnet"].comparison is not None  # measured, with its interval
+    smooth = judged["interpolation-body-smoother-than-the linear algebra"]
+    body = [r for r in apps if r["table"] == "interpolation" and r["kind"] == "body"]
+    assert smooth.comparison is not None or not np.isfinite([r["smoothness_shapes"] for r in body]).all()
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the applications were measured again on the same checkpoints")
+
+    monkeypatch.setattr(reproduce, "seeded_applications_rows", refuse)  # a second call keeps the step's rows
+    again = reproduce.reproduce("quick", tmp_path, seeds=2, refine=False, figures=False, **options)
+
+    def apps_of(found):
+        return json.dumps([r for r in found if r["table"] in ("analogy", "interpolation")])
+
+    assert apps_of(again) == apps_of(rows)
+
+
 def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_loads, tiny_collection):
     """Table 1's Comp networks train on operators through computed maps; test shapes on 2k and 5k meshes are decoded
     by them and by Table 1's, beside the exact 1k operators of the same shapes."""
@@ -293,10 +337,13 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_
     }
     comp = opnet.data.mapped_collection(few, "2k", root=data)  # cached by reproduce
     for short in ("A+E+C", "Ext"):  # the Comp networks were trained on it
-        config = json.loads((tmp_path / "runs" / f"comp-{short}-d1" / "config.json").read_text())
+        (folder,) = (tmp_path / "runs").glob(f"comp-{short}-d1-*")
+        config = json.loads((folder / "config.json").read_text())
         assert config["data"]["fingerprint"] == train.collection_fingerprint(comp, opnet.CHANNEL_SETS[short])
     spec = plan["comp-half-ext"].spec  # beside them: half the shapes through the maps, half exact
-    config = json.loads((tmp_path / "runs" / spec.run_name / "config.json").read_text())
+    config = json.loads(
+        (spec.run_dir(tmp_path / "runs", opnet.data.half_mapped(few, comp)) / "config.json").read_text()
+    )
     half = opnet.data.half_mapped(few, comp)
     assert config["data"]["fingerprint"] == train.collection_fingerprint(half, ("extrinsic",))
     ops = half.operators[half.indices("train")]

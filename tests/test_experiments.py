@@ -257,7 +257,7 @@ def test_a_channel_of_ones_own_joins_the_reproductions_ablation(capsules, half_a
     assert np.isfinite(report.ablation_table(rows)).all()
     assert "Area+half area" in (out / "results.md").read_text()
     assert (out / "figures" / "ablation.png").stat().st_size > 1000
-    runs = json.loads((out / "runs" / own[0]["run"] / "config.json").read_text())
+    runs = json.loads((out / "runs" / own[0]["provenance"]["runs"][0] / "config.json").read_text())
     assert runs["channel_specs"]["half area"] == half_area  # its class, recorded for `opnet evaluate`
 
 
@@ -314,7 +314,7 @@ def test_reproduce_with_seeds_gives_intervals_and_judges_the_claims(capsules, tm
     rows, context = reproduce.read_results(out)
     nets = [r for r in rows if r["table"] == "table1" and r.get("architecture") == "operatornet"]
     assert nets and all(r["seeds"] == [0, 1] and r["d_R_low"] <= r["d_R"] <= r["d_R_high"] for r in nets)
-    assert all(len(r["runs"]) == 2 and (out / "runs" / r["runs"][1]).is_dir() for r in nets)
+    assert all(len(r["runs"]) == 2 and (out / "runs" / r["provenance"]["runs"][1]).is_dir() for r in nets)
     first = next(r for r in nets if r["entry"] == "int+ext")
     assert first["run"] == "+".join(first["runs"]) and np.shape(first["d_R_shapes"]) == (2, first["n_shapes"])
     assert " ± " in (out / "results.md").read_text()
@@ -341,3 +341,112 @@ def test_results_of_other_seeds_are_not_merged_but_those_of_before_seeds_are():
     assert report.merge_results(old, [], dict(context, seeds=1))[0] == old[0]
     with pytest.warns(UserWarning, match="replaced, not merged"):
         assert report.merge_results(old, [], dict(context, seeds=3))[0] == []
+
+
+@pytest.mark.slow
+def test_reproduce_records_provenance_keeps_current_rows_and_measures_stale_ones_again(capsules, tmp_path, monkeypatch):
+    """Every row says which trainings it measured; a second call keeps the rows of the same checkpoints without
+    evaluating anything, and a row whose recorded checkpoint is not its run's current one is measured again."""
+    from opnet.experiments import provenance, runner
+
+    monkeypatch.setitem(plan.BUDGETS, "quick", BUDGET)
+    out = tmp_path / "out"
+    options = dict(collection="capsules", ablation=False, figures=False, device="cpu", progress=False)
+    first = reproduce.reproduce("quick", out, **options)
+    checkpoints = provenance.run_checkpoints(out / "runs")
+    for r in first:
+        p = r["provenance"]
+        assert {"runs", "checkpoints", "seeds", "commit", "date", "machine", "preset", "inputs"} <= set(p)
+        assert p["preset"] == "quick" and provenance.current(r, checkpoints)
+        if r.get("baseline") is None:  # a network's row: its runs' folders, each checkpoint's SHA-256
+            assert p["runs"] and all(checkpoints[run] == sha for run, sha in zip(p["runs"], p["checkpoints"]))
+    nets = [r for r in first if r["entry"] == "int+ext"]
+    assert nets[0]["provenance"]["runs"][0].startswith(nets[0]["run"] + "-") and "convergence" in nets[0]
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a row of the same checkpoints, data and budget was evaluated again")
+
+    with monkeypatch.context() as m:  # nothing changed: every row is kept, nothing is evaluated
+        m.setattr(runner, "evaluate", refuse)
+        m.setattr(runner, "evaluate_seeds", refuse)
+        again = reproduce.reproduce("quick", out, **options)
+    assert again == first
+
+    # a row that records another training of its run than the folder's: dropped, then measured again
+    data = json.loads((out / "results.json").read_text())
+    stale = next(r for r in data["rows"] if r["entry"] == "ext")
+    stale["provenance"]["checkpoints"] = ["0" * 64]
+    (out / "results.json").write_text(json.dumps(data))
+    evaluated = []
+    real = runner.evaluate
+    monkeypatch.setattr(
+        runner,
+        "evaluate",
+        lambda coll, methods, *a, **k: evaluated.append(methods[0].name) or real(coll, methods, *a, **k),
+    )
+    with pytest.warns(UserWarning, match="not their runs' current ones"):
+        third = reproduce.reproduce("quick", out, **options)
+    assert set(evaluated) == {"OperatorNet (Ext)"}
+    by = {(r["entry"], r["split"]): r["d_R"] for r in first}
+    assert {(r["entry"], r["split"]): r["d_R"] for r in third} == by  # the same checkpoint measures the same
+
+
+def test_figures_carry_the_rows_intervals_as_error_bars():
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from opnet.experiments import figures
+
+    def row(split, d_R, low=None, high=None, **fields):
+        fields = dict(table="table1", architecture="operatornet", variant="paper", channels=list(opnet.KINDS),
+                      depth=1, group="table1", run="table1-A+E+C-d1", refined=None, n_shapes=3) | fields  # fmt: skip
+        return dict(fields, split=split, d_R=d_R, d_R_low=low, d_R_high=high)
+
+    rows = [row("test", 1e-4, 0.8e-4, 1.2e-4), row("test_subjects", 2e-4, 1.5e-4, 2.5e-4)]
+    fig = figures.generalisation_figure(rows)
+    bars = [c for c in fig.axes[0].containers if isinstance(c, matplotlib.container.BarContainer)]
+    assert all(c.errorbar is not None for c in bars)
+    segments = bars[0].errorbar.lines[2][0].get_segments()  # the test bar's interval, ×10⁻⁴
+    assert np.allclose([segments[0][0][1], segments[0][1][1]], [0.8, 1.2])
+    abl = [dict(row("test", 3e-4, 2e-4, 4e-4), table="ablation", group="ablation")]
+    assert report.ablation_table(abl, "half_width")[0, -1] == pytest.approx(1.0)
+    texts = [t.get_text() for t in figures.ablation_figure(abl).axes[0].texts]
+    assert texts == ["3\n± 1"]
+    assert np.isnan(report.ablation_table([dict(abl[0], d_R_low=None)], "half_width")).all()  # one training: none
+
+
+def test_budgets_name_their_schedule_seeds_and_grid_and_the_papers_code_budget_is_named():
+    default = plan.BUDGETS["default"]
+    assert default.schedule == "onecycle" and default.ablation_epochs == default.epochs  # the ablation at Table 1's
+    d = plan.declare(default, seeds=default.seeds, ablation_grid=default.ablation_grid)
+    assert d["int+ext"].spec.schedule == "onecycle" and d["pointnet"].spec.schedule == "onecycle"
+    assert d["ours"].spec.schedule is None  # our variant keeps its own one-cycle rate
+    cross = [e for e in d.entries if e.table == "ablation"]
+    assert len(cross) == len(plan.ABLATION_SETS) + len(plan.ABLATION_DEPTHS) - 1  # depth 1's row, A+E+C's column
+    assert {(e.spec.depth, e.spec.channel_names) for e in cross if e.spec.depth > 1} == {
+        (depth, opnet.KINDS) for depth in plan.ABLATION_DEPTHS[1:]
+    }
+    assert len([e for e in plan.declare(default).entries if e.table == "ablation"]) == 28  # the full grid
+    with pytest.raises(ValueError, match="grid must be one of"):
+        plan.declare(default, ablation_grid="diagonal")
+    # the preset's seeds and grid unless told; the paper's code's budget by name, its evaluation the preset's
+    c = config.ReproduceConfig(preset="default")
+    assert (c.seeds, c.ablation_grid) == (3, "cross") and config.ReproduceConfig(preset="quick").seeds == 1
+    assert config.ReproduceConfig(preset="default", seeds=1, ablation_grid="full").seeds == 1
+    code = config.ReproduceConfig(preset="paper", training_budget="paper-code").training
+    assert (code.epochs, code.lr, code.batch_size, code.schedule) == (450, 1e-4, 32, "constant")
+    assert code.analogies == plan.BUDGETS["paper"].analogies
+    with pytest.raises(ValueError, match="paper-code"):
+        config.ReproduceConfig(training_budget="papers")
+    args = _parser().parse_args(["reproduce", "--budget", "paper-code", "--ablation-grid", "cross"])
+    assert (args.training_budget, args.ablation_grid) == ("paper-code", "cross")
+    # a claim "within 5×" is annotated against five times the other's mean
+    from opnet.experiments import claims
+
+    rows = [
+        dict(table="table1", split="test", d_R=3e-4, **plan.PAPER_ROWS["OperatorNet (Comp)(Int+Ext)"]),
+        dict(table="table1", split="test", d_R=1e-4, **plan.PAPER_ROWS["OperatorNet (Int+Ext)"]),
+    ]
+    line = next(x for x in claims.claims_markdown(rows) if "within 5×" in x)
+    assert "3 / 5 × 1" in line and "(means: holds)" in line

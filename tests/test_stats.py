@@ -59,7 +59,11 @@ def test_the_ablation_trains_each_seed_and_its_rows_carry_intervals_and_comparis
     assert [(r["channels"], r["seeds"]) for r in nets] == [(c, [0, 1]) for c in sets]
     for r in nets:  # the mean of the seeds' means, inside its interval; each seed its own run
         assert r["d_R"] == pytest.approx(np.mean(r["d_R_seeds"])) and r["d_R_low"] <= r["d_R"] <= r["d_R_high"]
-        assert len(r["runs"]) == 2 and r["runs"][1].endswith("-s1") and (tmp_path / r["runs"][1]).is_dir()
+        assert len(r["runs"]) == 2 and r["runs"][1].endswith("-s1") and r["provenance"]["seeds"] == [0, 1]
+        folders = r["provenance"]["runs"]  # each seed's folder: its run name and the digest of its settings and data
+        assert folders[1].startswith(r["runs"][1] + "-") and (tmp_path / folders[1] / "best.pt").is_file()
+        assert r["provenance"]["checkpoints"] == [opnet.train.checkpoint_sha256(tmp_path / f) for f in folders]
+        assert len(r["convergence"]) == 2 and all(isinstance(c["converged"], bool) for c in r["convergence"])
         assert np.shape(r["d_R_shapes"]) == (2, len(coll.indices("val")))
     assert " ± " in table.markdown()
     c = table.compare(["area", "extrinsic"], ["area"])
@@ -95,3 +99,22 @@ def test_compare_pairs_seed_by_seed_and_one_training_is_never_called_better():
     with pytest.raises(ValueError, match="seeds"):
         stats.compare(rows, dict(method="one"), dict(method="pair"), split="val")
     assert stats.compare(rows, dict(method="pair"), dict(method="nn"), split="val").verdict in stats.VERDICTS
+
+
+def test_a_factor_compares_with_a_multiple_of_the_other_method():
+    """ "Within 5× of" and "ten times better than" are comparisons with a multiple of the other's errors."""
+    rng = np.random.default_rng(3)
+    base = dict(table="table1", split="test", shapes=list(range(40)), seeds=[0, 1, 2])
+    err = rng.gamma(4.0, 1.0, (3, 40))
+    rows = [
+        dict(base, method="comp", d_R_shapes=(3 * err).tolist()),
+        dict(base, method="exact", d_R_shapes=err.tolist()),
+    ]
+    a, b = dict(method="comp"), dict(method="exact")
+    assert stats.compare(rows, a, b).verdict == "b better"  # three times the error: worse
+    within = stats.compare(rows, a, b, factor=5.0)  # but within five times it
+    assert within.verdict == "a better" and within.b == "5 × exact"
+    np.testing.assert_allclose(within.difference.mean, np.mean(3 * err - 5 * err))
+    assert stats.compare(rows, a, b, factor=2.0).verdict == "b better"
+    with pytest.raises(ValueError, match="factor must be a number > 0"):
+        stats.compare(rows, a, b, factor=0)

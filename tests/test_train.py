@@ -420,3 +420,23 @@ def test_the_ranks_split_the_global_batch_and_its_noise():
         rows = np.concatenate([p[w > 0] for p, w in used])
         np.testing.assert_array_equal(np.sort(rows), np.arange(len(batch)))
         assert all(len(p) == len(w) >= 1 for p, w in used)  # every rank computes a shape, weighted 0 when not its own
+
+
+def test_one_spec_trains_the_same_checkpoint_bit_for_bit_and_its_digest_names_it(coll, tmp_path):
+    """A run's folder name carries a digest of what sets its weights, and training one spec twice on one machine
+    gives the same best.pt, byte for byte: its SHA-256 names the training (what rows record in their provenance)."""
+    from opnet.experiments import RunSpec
+
+    spec = RunSpec(epochs=2, batch_size=8, hidden=16, group="det")
+    a, b = spec.run_dir(tmp_path / "a", coll), spec.run_dir(tmp_path / "b", coll)
+    assert a.name == b.name and a.name.startswith("det-A+E+C-d1-")
+    for folder in (a, b):
+        train.fit(coll, run_dir=folder, progress=False, **spec.fit_options())
+    assert train.checkpoint_sha256(a) == train.checkpoint_sha256(b)
+    assert train.run_digest(coll, **spec.fit_options()) == a.name.rsplit("-", 1)[1]
+    # what sets the weights moves the digest; where it runs and how often it is checkpointed do not
+    for other in (dict(epochs=3), dict(lr=5e-4), dict(schedule="onecycle"), dict(seed=1), dict(channels=["area"])):
+        assert train.run_digest(coll, **{**spec.fit_options(), **other}) != train.run_digest(coll, **spec.fit_options())
+    assert train.run_digest(coll, **spec.fit_options(), device="cpu", checkpoint_every=0) == a.name.rsplit("-", 1)[1]
+    moved = coll.subset(np.arange(len(coll.vertices)))  # the same shapes: the same data
+    assert train.run_digest(moved, **spec.fit_options()) == train.run_digest(coll, **spec.fit_options())

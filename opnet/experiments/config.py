@@ -4,12 +4,12 @@ commands' options (:mod:`opnet.options`), as :class:`opnet.train.TrainConfig` do
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 from ..data.profiles import PROFILES, profile, reproducible
 from ..inner_products import get_inner_product, split_channels
 from ..options import option, positive_int
-from .plan import BUDGETS, PARTS, PRESETS, Budget
+from .plan import ABLATION_GRIDS, BUDGETS, PARTS, PRESETS, TRAINING_BUDGETS, Budget
 
 __all__ = ["ReproduceConfig", "EvaluateConfig"]
 
@@ -26,7 +26,9 @@ class ReproduceConfig:
     """
 
     preset: str = option(
-        "quick", "quick: minutes on a laptop CPU; default: about an hour on 2 cores; paper: GPU", choices=PRESETS
+        "quick",
+        "quick: minutes on a laptop CPU; default: 3 seeds of every network, about half a day on 2 cores; paper: GPU",
+        choices=PRESETS,
     )
     collection: str = option(
         "humans", "a registered collection profile (humans: the paper's Table 1 beside ours; animals: quadrupeds)"
@@ -50,19 +52,33 @@ class ReproduceConfig:
         "skip the rows of our variant trained with more distinct bodies and random poses (plan.MORE_BODIES)",
         switch=True,
     )
+    ablation_grid: str | None = option(
+        None,
+        "the ablation's networks: full (every input set at depths 1-4, 28 networks) or cross (every set at depth 1 "
+        "and A+E+C at depths 1-4, 10 networks: the cells the paper's ablation claims read); default the preset's",
+        choices=ABLATION_GRIDS,
+    )
     ablation_channels: tuple = option(
         (),
         "a channel set of your own for the ablation grid, e.g. area,mymodule:MyIP (repeat for several); added "
         "beside the paper's seven sets",
         append=True,
     )
-    seeds: int = option(
-        1,
-        "train each network of Table 1, the Comp rows and the ablation with this many seeds (0, 1, ...): rows then "
+    seeds: int | None = option(
+        None,
+        "train each network of Table 1, the Comp rows and the ablation with this many seeds (0, 1, ...; default the "
+        "preset's: 1 at quick, 3 at default and paper): rows then "
         "hold each seed's mean, the spread and a 95 %% interval (over seeds and shapes), and the claims are judged",
         type=positive_int,
     )
     data_root: str | None = option(None, "where collections are cached")
+    training_budget: str | None = option(
+        None,
+        "train with a named budget instead of the preset's: paper-code (the paper's published code: 450 epochs, "
+        "Adam 1e-4 constant, batch 32; for a GPU or a long run)",
+        flag="--budget",
+        choices=tuple(TRAINING_BUDGETS),
+    )
     budget: Budget | None = option(None, "training settings (default BUDGETS[preset])", cli=False)
     progress: bool | None = option(
         None, "None: one bar over the plan; True: also a bar per network; False: none", cli=False
@@ -98,10 +114,20 @@ class ReproduceConfig:
             for channel in split_channels(s):  # unknown or unimportable: refused now, not after Table 1's training
                 get_inner_product(channel)
         object.__setattr__(self, "ablation_channels", sets)
-        if isinstance(self.seeds, bool) or not isinstance(self.seeds, int) or self.seeds < 1:
-            raise ValueError(f"seeds must be a count of trainings >= 1, got {self.seeds!r}.")
+        if self.training_budget is not None and self.training_budget not in TRAINING_BUDGETS:
+            raise ValueError(
+                f"unknown training budget {self.training_budget!r}; the named budgets are {list(TRAINING_BUDGETS)}."
+            )
         if self.budget is not None and not isinstance(self.budget, Budget):
             raise TypeError(f"budget must be an opnet.experiments.plan.Budget, got {type(self.budget).__name__}.")
+        if self.seeds is None:  # the preset's
+            object.__setattr__(self, "seeds", self.training.seeds)
+        if self.ablation_grid is None:
+            object.__setattr__(self, "ablation_grid", self.training.ablation_grid)
+        if self.ablation_grid not in ABLATION_GRIDS:
+            raise ValueError(f"ablation_grid must be one of {ABLATION_GRIDS}, got {self.ablation_grid!r}.")
+        if isinstance(self.seeds, bool) or not isinstance(self.seeds, int) or self.seeds < 1:
+            raise ValueError(f"seeds must be a count of trainings >= 1, got {self.seeds!r}.")
 
     @property
     def profile(self):
@@ -110,8 +136,11 @@ class ReproduceConfig:
 
     @property
     def training(self) -> Budget:
-        """:attr:`budget`, or the preset's."""
-        return self.budget or BUDGETS[self.preset]
+        """:attr:`budget`, or the preset's, with the training fields of :attr:`training_budget` when one is named."""
+        budget = self.budget or BUDGETS[self.preset]
+        if self.training_budget is None:
+            return budget
+        return replace(budget, **TRAINING_BUDGETS[self.training_budget])
 
     def parts(self) -> tuple[str, ...]:
         """The parts of the plan this reproduction runs (a ``None`` flag: its profile's choice)."""

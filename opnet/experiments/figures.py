@@ -61,7 +61,8 @@ def table1_figures(out: Path, coll, ours, nn, histories: dict) -> None:
 
 def ablation_figure(rows):
     """The ablation's heat map (:func:`opnet.plotting.plot_ablation` of :func:`ablation_table`, every set the rows
-    hold: :func:`ablation_columns`): a matplotlib figure.
+    hold: :func:`ablation_columns`), each cell with the half-width of its 95 % interval where its row has one: a
+    matplotlib figure.
     """
     from ..plotting import plot_ablation
 
@@ -69,6 +70,7 @@ def ablation_figure(rows):
         ablation_table(rows),
         [f"Conv. {'×'.join(str(8 * 2**i) for i in range(d))}" for d in PAPER_ABLATION_DEPTHS],
         ablation_columns(rows),
+        half_widths=ablation_table(rows, "half_width"),
     )
 
 
@@ -269,7 +271,7 @@ def _bodies_panel(ax, bodies: list) -> None:
         x = np.arange(len(keys)) + (j - 0.5) * 0.38
         heights = [1e4 * value[k]["d_R"] if k in value else np.nan for k in keys]
         label = f"{split} ({'unseen' if j else 'seen'} bodies)"
-        bars = ax.bar(x, heights, 0.38, color=("tab:blue", "tab:red")[j], label=label)
+        bars = ax.bar(x, heights, 0.38, color=("tab:blue", "tab:red")[j], label=label, yerr=_error_bars(value, keys))
         ax.bar_label(bars, fmt="%.3g", fontsize=7, padding=1)
     shapes = {(row_key(r), r["split"]): r["n_shapes"] for r in bodies}
     first = {row_key(r): r for r in reversed(bodies)}  # each method's fields
@@ -287,6 +289,18 @@ def _bodies_panel(ax, bodies: list) -> None:
     ax.set_ylabel("mean d_R (×10⁻⁴ m² = cm²)")
     ax.set_title("Unseen bodies: OperatorNet (Int+Ext) beside Table 1 (n: test / test_subjects shapes)", fontsize=10)
     ax.legend(fontsize=8)
+
+
+def _error_bars(value: dict, keys: list):
+    """The ``yerr`` of bars of ``value[k]["d_R"]`` (×10⁻⁴): each row's 95 % interval below and above its mean, where
+    rows have one (over seeds and shapes, :func:`opnet.experiments.stats.summarize_seeds`); ``None`` when none has.
+    """
+    lows = [value[k].get("d_R_low") if k in value else None for k in keys]
+    if all(v is None for v in lows):
+        return None
+    below = [1e4 * (value[k]["d_R"] - lo) if lo is not None else 0.0 for k, lo in zip(keys, lows)]
+    above = [1e4 * (value[k]["d_R_high"] - value[k]["d_R"]) if lo is not None else 0.0 for k, lo in zip(keys, lows)]
+    return np.array([below, above])
 
 
 def _triangulations_panel(ax, part: tuple) -> None:

@@ -22,6 +22,7 @@ from .spec import RunSpec
 __all__ = [
     "Budget",
     "BUDGETS",
+    "TRAINING_BUDGETS",
     "PRESETS",
     "TRAINING_FIELDS",
     "Entry",
@@ -34,6 +35,7 @@ __all__ = [
     "MORE_BODIES",
     "ABLATION_SETS",
     "ABLATION_DEPTHS",
+    "ABLATION_GRIDS",
     "REFINE_SETS",
     "COMP_RESOLUTION",
     "spec",
@@ -47,8 +49,14 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Budget:
-    """Training settings of a preset: Table 1's epochs, the ablation's (fewer), batch size, learning rate, and how much
-    is evaluated (refinement steps and shapes, analogy questions, interpolation paths, other-mesh shapes).
+    """Training settings of a preset: Table 1's epochs, the ablation's, batch size, peak learning rate and its
+    schedule, and how much is evaluated (refinement steps and shapes, analogy questions, interpolation paths,
+    other-mesh shapes).
+
+    ``schedule`` (:data:`opnet.train.SCHEDULES`) is the learning rate over a run of the paper's network and the
+    PointNet autoencoder; ``None``: each variant's own (constant for the paper's, one-cycle for ours). Our variant
+    always trains with its one-cycle schedule. ``seeds``: the trainings of each network a reproduction at this
+    preset makes by default (``reproduce --seeds``); ``ablation_grid``: its ablation's grid (:data:`ABLATION_GRIDS`).
     """
 
     epochs: int
@@ -56,6 +64,7 @@ class Budget:
     batch_size: int = 32
     lr: float = 1e-3
     hidden: int = 1024
+    schedule: str | None = None
     refine_steps: int = 300
     refine_shapes: int = 80
     pointnet_epochs: int = 60
@@ -63,10 +72,12 @@ class Budget:
     paths: int = 10  # interpolation paths per kind
     apps_refine_shapes: int = 24  # shapes per kind the applications refine (seconds each)
     discretisation_shapes: int = 80  # test shapes the different-discretisation rows map (seconds each)
+    seeds: int = 1
+    ablation_grid: str = "full"
 
 
 #: The fields of a :class:`Budget` that the networks are trained with (the others set how much is evaluated).
-TRAINING_FIELDS = ("epochs", "ablation_epochs", "pointnet_epochs", "batch_size", "lr", "hidden")
+TRAINING_FIELDS = ("epochs", "ablation_epochs", "pointnet_epochs", "batch_size", "lr", "hidden", "schedule")
 #: The training settings (:class:`Budget`) of each preset: the one list of the presets.
 BUDGETS = {
     "quick": Budget(
@@ -81,8 +92,18 @@ BUDGETS = {
         apps_refine_shapes=6,
         discretisation_shapes=12,
     ),
-    "default": Budget(epochs=60, ablation_epochs=12),
-    "paper": Budget(epochs=100, ablation_epochs=25),
+    # chosen on `val` (benchmarks/schedules.py): the one-cycle schedule, whose validation curve flattens; the
+    # ablation at Table 1's budget; three seeds of every network
+    "default": Budget(epochs=60, ablation_epochs=60, schedule="onecycle", seeds=3, ablation_grid="cross"),
+    "paper": Budget(epochs=100, ablation_epochs=100, schedule="onecycle", seeds=3),
+}
+#: Training budgets asked for by name (``reproduce --budget NAME``, ``ReproduceConfig(training_budget=)``): the
+#: training fields they set; the evaluation fields stay the preset's. ``paper-code``: the budget of the paper's
+#: published code (450 epochs, Adam at a constant 10⁻⁴, batch 32), for a GPU or a long run.
+TRAINING_BUDGETS = {
+    "paper-code": dict(
+        epochs=450, ablation_epochs=450, pointnet_epochs=450, batch_size=32, lr=1e-4, schedule="constant"
+    ),
 }
 #: The presets' names, in order of size: the data's (:data:`opnet.data.generators.PRESETS`, the collections' sizes),
 #: each with its training budget here.
@@ -106,6 +127,9 @@ REFINE_SETS = ("test", "test_subjects")
 ABLATION_SETS = dict(CHANNEL_SETS)
 #: The ablation's encoder depths (its rows).
 ABLATION_DEPTHS = PAPER_ABLATION_DEPTHS
+#: The ablation's grids: ``full``, every set at every depth (the paper's Appendix B, 28 networks); ``cross``, every
+#: set at depth 1 and A+E+C at every depth (10 networks: the cells its claims read).
+ABLATION_GRIDS = ("full", "cross")
 
 
 @dataclass(frozen=True)
@@ -233,12 +257,14 @@ class Plan:
 def spec(group: str, budget: Budget, channels=KINDS, depth: int = 1, variant: str = "paper", **fields) -> RunSpec:
     """The declared run of one network of the reproduction: ``group`` names its folder's prefix, ``variant`` is
     ``"paper"``, ``"ours"`` or ``"pointnet"`` (the PointNet autoencoder, ``budget.pointnet_epochs``); the budget's
-    epochs, batch size, learning rate and width; ``fields``: other fields of :class:`~opnet.experiments.spec.RunSpec`
-    (``name``, ``epochs``, ``seed``, ``options``).
+    epochs, batch size, learning rate, width and schedule (not for ``"ours"``, which keeps its own); ``fields``:
+    other fields of :class:`~opnet.experiments.spec.RunSpec` (``name``, ``epochs``, ``seed``, ``options``).
     """
     pointnet = variant == "pointnet"
     epochs = fields.pop("epochs", None) or (budget.pointnet_epochs if pointnet else budget.epochs)
     fields["options"] = dict(fields.get("options") or {})
+    if variant != "ours":  # our variant keeps its one-cycle schedule
+        fields.setdefault("schedule", budget.schedule)
     return RunSpec(
         channels=() if pointnet else channels,
         depth=depth,
@@ -280,11 +306,12 @@ def bodies_group(bodies: str, poses: str = "sequence") -> str:
     return f"bodies-{bodies}" + ("" if poses == "sequence" else f"-poses-{poses}")
 
 
-def declare(budget: Budget, *, ablation_sets: dict | None = None, seeds: int = 1) -> Plan:
+def declare(budget: Budget, *, ablation_sets: dict | None = None, seeds: int = 1, ablation_grid: str = "full") -> Plan:
     """Every entry of a reproduction at ``budget``, in the order it runs, and its steps (:func:`select` keeps a
     reproduction's). ``ablation_sets``: the ablation's columns (default :data:`~opnet.experiments.plan.ABLATION_SETS`);
-    ``seeds``: each network of Table 1, the Comp rows and the ablation is trained with seeds ``0 … seeds−1``
-    (:attr:`RunSpec.seeds <opnet.experiments.spec.RunSpec.seeds>`; an ensemble's members keep theirs).
+    ``ablation_grid``: :data:`~opnet.experiments.plan.ABLATION_GRIDS`; ``seeds``: each network of Table 1, the Comp
+    rows and the ablation is trained with seeds ``0 … seeds−1`` (:attr:`RunSpec.seeds
+    <opnet.experiments.spec.RunSpec.seeds>`; an ensemble's members keep theirs).
     """
     rep = dict(seeds=tuple(range(seeds))) if seeds > 1 else {}  # replicate trainings of each network
     entries = [
@@ -333,8 +360,8 @@ def declare(budget: Budget, *, ablation_sets: dict | None = None, seeds: int = 1
                 other_meshes=True,
             )
         )
-    for key, (name, draws, members) in MORE_BODIES.items():  # an ensemble of `members` seeds
-        first = spec(bodies_group(**draws), budget, KINDS, variant="ours", name=name)
+    for key, (name, draws, members) in MORE_BODIES.items():  # an ensemble of `members` seeds, or one network
+        first = spec(bodies_group(**draws), budget, KINDS, variant="ours", name=name, **(rep if members == 1 else {}))
         runs = (first, *(replace(first, seed=s, name=f"{name}, seed {s}") for s in range(1, members)))
         fields = dict(draws, **({"seeds": members} if members > 1 else {}))
         entries.append(Entry(key, name, runs, draws=draws, part="bodies", fields=fields))
@@ -356,7 +383,7 @@ def declare(budget: Budget, *, ablation_sets: dict | None = None, seeds: int = 1
         Entry(f"{key}+refined", f"{by_key[key].name} + refinement", refines=key, test_sets=REFINE_SETS, part="refine")
         for key in refined
     ]
-    entries += ablation_entries(budget, ablation_sets, seeds=seeds)
+    entries += ablation_entries(budget, ablation_sets, seeds=seeds, grid=ablation_grid)
     return Plan(tuple(entries), (Step("discretisation", "maps"), Step("applications", "applications")))
 
 
@@ -370,15 +397,21 @@ def ablation_label(channels) -> str:
     return channel_label(names) if paper is None else paper
 
 
-def ablation_entries(budget: Budget, sets: dict | None = None, *, seeds: int = 1) -> list[Entry]:
+def ablation_entries(budget: Budget, sets: dict | None = None, *, seeds: int = 1, grid: str = "full") -> list[Entry]:
     """The ablation's entries: each set of ``sets`` (label → channels; default
-    :data:`~opnet.experiments.plan.ABLATION_SETS`) at each depth of :data:`ABLATION_DEPTHS`, trained
-    ``budget.ablation_epochs`` epochs (with ``seeds`` seeds), evaluated on ``test``; its key is its first run's name.
+    :data:`~opnet.experiments.plan.ABLATION_SETS`) at each depth of :data:`ABLATION_DEPTHS` (``grid="full"``), or
+    every set at depth 1 and ``A+E+C`` at every depth (``grid="cross"``: the cells the paper's ablation claims read,
+    :data:`ABLATION_GRIDS`), trained ``budget.ablation_epochs`` epochs (with ``seeds`` seeds), evaluated on
+    ``test``; its key is its first run's name.
     """
+    if grid not in ABLATION_GRIDS:
+        raise ValueError(f"grid must be one of {ABLATION_GRIDS}, got {grid!r}.")
     sets = ABLATION_SETS if sets is None else sets
     out = []
     for depth in ABLATION_DEPTHS:
         for label, channels in sets.items():
+            if grid == "cross" and depth != 1 and label != "A+E+C":
+                continue
             name = f"OperatorNet ({label}) depth {depth}"
             s = spec("ablation", budget, channels, depth, epochs=budget.ablation_epochs, name=name)
             key = f"ablation-{s.run_name.removeprefix('ablation-')}"  # the same key whatever the seeds

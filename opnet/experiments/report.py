@@ -45,6 +45,7 @@ __all__ = [
     "RESULTS_FORMAT",
     "RESULTS_VERSION",
     "applications_markdown",
+    "provenance_markdown",
     "targets",
     "ablation_table",
     "ablation_columns",
@@ -148,17 +149,26 @@ def ablation_columns(rows) -> list[str]:
     return list(dict.fromkeys([*PAPER_ABLATION_SETS, *extra]))
 
 
-def ablation_table(rows) -> np.ndarray:
+def ablation_table(rows, value: str = "mean") -> np.ndarray:
     """The ablation's d_R ×10⁻⁴ on ``test`` as a ``(depths, sets)`` array (NaN where not trained yet): rows
     ``PAPER_ABLATION_DEPTHS``, columns :func:`~opnet.experiments.report.ablation_columns` (the paper's grid, then any
-    other set).
+    other set). ``value="half_width"``: the half-width of each cell's 95 % interval instead (NaN where its row has
+    none: one training).
     """
+    if value not in ("mean", "half_width"):
+        raise ValueError(f"value must be 'mean' or 'half_width', got {value!r}.")
     columns = ablation_columns(rows)
     table = np.full((len(PAPER_ABLATION_DEPTHS), len(columns)), np.nan)
     for r in rows:
         if r.get("table") == "ablation" and r.get("depth") in PAPER_ABLATION_DEPTHS:
             column = columns.index(ablation_label(row_channels(r)))
-            table[PAPER_ABLATION_DEPTHS.index(r["depth"]), column] = 1e4 * r["d_R"]
+            if value == "mean":
+                cell = r["d_R"]
+            elif r.get("d_R_low") is not None:
+                cell = (r["d_R_high"] - r["d_R_low"]) / 2
+            else:
+                continue
+            table[PAPER_ABLATION_DEPTHS.index(r["depth"]), column] = 1e4 * cell
     return table
 
 
@@ -300,6 +310,7 @@ SECTION_TITLES = {
     "ablation": "Ablation (Appendix B): d_R ×10⁻⁴ on `test`",
     "discretisation": "Other triangulations: test shapes on 2k and 5k meshes",
     "applications": "Applications: analogy and interpolation against ground truth",
+    "provenance": "Provenance: which training each row measured",
 }
 
 
@@ -318,7 +329,52 @@ def results_sections(rows: list[dict], context: dict) -> dict[str, list[str]]:
     sections |= {"targets": targets(t1, paper=paper), "ablation": ablation_markdown(rows, context["budget"], paper)}
     other_meshes = discretisation_markdown(rows) if p.computed_maps else []  # its other triangulations
     sections |= {"discretisation": other_meshes, "applications": applications_markdown(rows, context)}
+    sections["provenance"] = provenance_markdown(rows)
     return {name: lines for name, lines in sections.items() if lines}
+
+
+def provenance_markdown(rows: list[dict]) -> list[str]:
+    """Where the rows come from (lines): one line per method and its trainings (the rows' ``provenance``: run
+    folders, the first 12 hex digits of each ``best.pt``'s SHA-256, seeds, commit, date, machine, preset), and
+    whether each run's validation curve converged (:func:`opnet.train.convergence`); a sentence when no row records
+    one (a file written before rows recorded their trainings).
+    """
+    rows = upgrade_rows(rows)
+    if not any(isinstance(r.get("provenance"), dict) for r in rows):
+        return [
+            "These rows record no provenance: they were written before each row recorded the trainings it measured, "
+            "so nothing here says which training of a run each row comes from."
+        ]
+    lines = [
+        "Each row records the trainings it measured: the run folders (the run's name and a digest of its settings "
+        "and data), each `best.pt`'s SHA-256 (first 12 hex digits; training is bit-deterministic on one machine, so "
+        "it names the training), the seeds, and the commit, date, machine and preset of the call that measured it. "
+        "Converged: the runs whose last 10 % of epochs are within 5 % of their best `val` d_R.",
+        "",
+        "| table | method | runs | best.pt SHA-256 | seeds | converged | commit | date | machine | preset |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    seen = set()
+    for r in rows:
+        p = r.get("provenance")
+        if not isinstance(p, dict):
+            lines.append(f"| {r.get('table')} | {r.get('method')} | (none recorded) | | | | | | | |")
+            continue
+        key = (r.get("table"), r.get("method"), p.get("inputs"))
+        if key in seen:
+            continue
+        seen.add(key)
+        conv = r.get("convergence") or []
+        converged = f"{sum(bool(c['converged']) for c in conv)}/{len(conv)}" if conv else "–"
+        commit = (p.get("commit") or "–")[:10] + ("-dirty" if str(p.get("commit", "")).endswith("-dirty") else "")
+        runs = "<br>".join(run or "(in memory)" for run in p["runs"]) or "–"
+        lines.append(
+            f"| {r.get('table')} | {r.get('method')} | {runs} | "
+            f"{'<br>'.join((c or '–')[:12] for c in p['checkpoints']) or '–'} | "
+            f"{', '.join(map(str, p.get('seeds') or [])) or '–'} | {converged} | {commit} | {p.get('date')} | "
+            f"{p.get('machine')} | {p.get('preset')} |"
+        )
+    return lines
 
 
 def context_markdown(context: dict) -> list[str]:
@@ -339,11 +395,28 @@ def context_markdown(context: dict) -> list[str]:
         f"Data: {context['collection']}; the furthest-point evaluation subset (the paper's 50 shapes: 5 per held-out "
         f"sequence) has {context['eval_subset']} shapes.",
         "",
-        f"Training: Adam, lr {b['lr']}, batch {b['batch_size']}, {b['epochs']} epochs for Table 1's OperatorNets "
-        f"({b.get('pointnet_epochs', b['epochs'])} for the PointNet AE) and {b['ablation_epochs']} for the ablation "
-        "(fewer, to keep the 28-network grid affordable); model "
-        "selection on `val`. " + _profile(context).context,
+        f"Training: Adam, {_schedule_text(b)}, batch {b['batch_size']}, {b['epochs']} epochs for Table 1's "
+        f"OperatorNets ({b.get('pointnet_epochs', b['epochs'])} for the PointNet AE) and {b['ablation_epochs']} for "
+        "the ablation"
+        + (" (fewer, to keep the 28-network grid affordable)" if b["ablation_epochs"] < b["epochs"] else "")
+        + f"{_seeds_text(context)}; model selection on `val`. "
+        + _profile(context).context,
     ]
+
+
+def _schedule_text(budget: dict) -> str:
+    """The learning rate of a budget in words: the paper's networks' schedule, and our variant's."""
+    schedule = budget.get("schedule")
+    if schedule in (None, "constant"):
+        return (
+            f"a constant lr {budget['lr']:g} for the paper's networks (one-cycle with peak {budget['lr']:g} for ours)"
+        )
+    return f"{schedule} schedule with peak lr {budget['lr']:g} for every network"
+
+
+def _seeds_text(context: dict) -> str:
+    seeds = context.get("seeds", 1)
+    return f", each with {seeds} seeds (0–{seeds - 1})" if seeds > 1 else ", one seed each"
 
 
 def table1_markdown(rows: list[dict], paper: bool = True) -> list[str]:

@@ -25,13 +25,15 @@ __all__ = [
     "build_method",
     "run_entries",
     "evaluate_seeds",
+    "entry_runs",
 ]
 
 
 @dataclass(eq=False)
 class Run:
-    """A trained (or loaded) run: its spec, network, history, folder (``None`` in memory) and ``info`` (``epochs``,
-    ``train_seconds``, ``device``: what its rows report).
+    """A trained (or loaded) run: its spec, network, history, folder (``None`` in memory), ``info`` (``epochs``,
+    ``train_seconds``, ``device``: fields of its rows), the SHA-256 of its ``best.pt`` (``None`` in memory) and its
+    :func:`opnet.train.convergence` (a dict): what its rows' ``provenance`` and ``convergence`` record.
     """
 
     spec: RunSpec
@@ -39,6 +41,13 @@ class Run:
     history: list
     run_dir: Path | None
     info: dict = field(default_factory=dict)
+    checkpoint: str | None = None
+    convergence: dict | None = None
+
+    @property
+    def run_id(self) -> str | None:
+        """The name of its folder (:meth:`RunSpec.run_id`), ``None`` in memory."""
+        return None if self.run_dir is None else self.run_dir.name
 
     def method(self, collection, **fields):
         """The :class:`opnet.evaluate.Method` of this run's network on ``collection``, named by :attr:`RunSpec.label`,
@@ -117,19 +126,20 @@ class Results(list):
 
 
 def train_run(spec, collection, run_root=None, *, device="auto", progress=None):
-    """Train ``spec`` (a :class:`~opnet.experiments.spec.RunSpec`) on ``collection`` in ``run_root / spec.run_name``
-    (:func:`opnet.train.fit`: an interrupted run continues from its last epoch, a finished one is loaded), or in
-    memory when ``run_root`` is ``None``; a :class:`Run`.
+    """Train ``spec`` (a :class:`~opnet.experiments.spec.RunSpec`) on ``collection`` in
+    ``run_root / spec.run_id(collection)`` (:func:`opnet.train.fit`: an interrupted run continues from its last epoch,
+    a finished one is loaded), or in memory when ``run_root`` is ``None``; a :class:`Run`.
     """
-    from ..train import fit
+    from ..train import checkpoint_sha256, convergence, fit
 
-    run_dir = spec.run_dir(run_root)
+    run_dir = spec.run_dir(run_root, collection)
     net, history = fit(collection, device=device, run_dir=run_dir, progress=progress, **spec.fit_options())
     trained_on = str(next(net.parameters()).device)
     if run_dir is not None:  # a reused run may have been trained elsewhere
         trained_on = json.loads((run_dir / "config.json").read_text())["device"]
     info = dict(epochs=len(history), train_seconds=round(sum(e["seconds"] for e in history), 1), device=trained_on)
-    return Run(spec, net, history, run_dir, info)
+    checkpoint = None if run_dir is None else checkpoint_sha256(run_dir)
+    return Run(spec, net, history, run_dir, info, checkpoint, convergence(history).as_dict())
 
 
 def evaluate_runs(runs, collection, test_sets=("val",), *, extra: dict | None = None):
@@ -200,16 +210,23 @@ def ablation(
         for channels in channel_sets
         for depth in depths
     ]
+    from .provenance import inputs_digest, record, stamp
+
     bar = tqdm(total=len(specs) * len(seeds), desc="ablation", unit="network", disable=progress is False)
     rows = Results()
+    context = stamp(device, collection)
     for spec in specs:
-        methods = []
+        runs = []
         for replicate in spec.replicates():
             bar.set_postfix_str(f"{spec.label}, seed {replicate.seed}")
-            run = train_run(replicate, collection, run_root, device=device, progress=progress is True)
-            methods.append(run.method(collection, seed=replicate.seed))
+            runs.append(train_run(replicate, collection, run_root, device=device, progress=progress is True))
             bar.update(1)
-        rows += evaluate_seeds(collection, methods, test_sets)
+        methods = [run.method(collection, seed=run.spec.seed) for run in runs]
+        prov = record(runs, context, inputs_digest(checkpoints=[r.checkpoint for r in runs], test_sets=test_sets))
+        convergence = [r.convergence for r in runs]
+        rows += [
+            dict(r, provenance=prov, convergence=convergence) for r in evaluate_seeds(collection, methods, test_sets)
+        ]
     bar.close()
     if baselines:
         seen = []
@@ -218,7 +235,9 @@ def ablation(
                 seen.append(spec.channel_names)
                 info = dict(run=None, architecture=None, variant=None, channels=list(spec.channel_names), depth=None)
                 nn = nearest_neighbour_method(collection, spec.channels, info=dict(info, baseline="nearest_neighbour"))
-                rows += evaluate(collection, [nn], test_sets, per_shape=True)
+                inputs = inputs_digest(baseline="nearest_neighbour", channels=info["channels"], test_sets=test_sets)
+                prov = record([], context, inputs)
+                rows += [dict(r, provenance=prov) for r in evaluate(collection, [nn], test_sets, per_shape=True)]
     return rows
 
 
@@ -236,6 +255,7 @@ class Outcome:
     runs: list
     tested_on: object
     methods: list = field(default_factory=list)  # a replicated entry's: one per seed (``method`` is the first's)
+    start: object = None  # a refinement's: the outcome of the entry it refines
 
 
 class Workspace:
@@ -243,10 +263,15 @@ class Workspace:
     first asked for, :meth:`data`), its profile, the run folders' root, the budget, the device, the progress bar.
     """
 
-    def __init__(self, coll, profile, runs_root, budget, *, device="cpu", data_root=None, progress=None, bar=None):
+    def __init__(
+        self, coll, profile, runs_root, budget, *, device="cpu", data_root=None, progress=None, bar=None,
+        extra_channels=(),
+    ):  # fmt: skip
         self.coll, self.profile, self.runs_root, self.budget = coll, profile, Path(runs_root), budget
         self.device, self.data_root, self.progress, self.bar = device, data_root, progress, bar
+        self.extra_channels = tuple(extra_channels)  # names of channels added for the ablation's own sets
         self._data: dict = {}
+        self._fingerprints: dict = {}  # id of a collection -> (the collection, kept alive; its fingerprint)
 
     def data(self, key: str, draws: dict | None = None):
         """The collection an entry trains or tests on (:data:`~opnet.experiments.plan.DATA`; ``draws``: the profile's
@@ -285,6 +310,19 @@ class Workspace:
             return coll.with_channels([*dict.fromkeys([*coll.channels, *FUNCCHAR])], progress=False)
         raise ValueError(f"unknown data {key!r}.")
 
+    def fingerprint(self, collection) -> str:
+        """:func:`opnet.train.collection_fingerprint` of one of this workspace's collections, computed once: its shapes
+        and the operators of its channels but the :attr:`extra_channels` (those added for the ablation's sets of one's
+        own, which only their own networks read: asking for one does not make the other rows new).
+        """
+        from ..train import collection_fingerprint
+
+        key = id(collection)
+        if key not in self._fingerprints:
+            channels = [c for c in collection.channels if c not in self.extra_channels]
+            self._fingerprints[key] = (collection, collection_fingerprint(collection, channels))
+        return self._fingerprints[key][1]
+
     def train(self, spec, collection):
         """Train (or load, when finished) ``spec`` on ``collection`` in this workspace's runs folder."""
         if self.bar is not None:
@@ -320,7 +358,8 @@ def build_method(entry, ws: Workspace, done: dict) -> Outcome:
             fields |= dict(run=start.runs[0].spec.run_name, seeds=[start.runs[0].spec.seed])
         info = {**where, **fields, "refined": True, **_untrained(ws.device)}
         options = refine_options(ws.budget, ws.device)
-        return Outcome(entry, refined_method(start.method, tested, name=entry.name, info=info, **options), [], tested)
+        method = refined_method(start.method, tested, name=entry.name, info=info, **options)
+        return Outcome(entry, method, [], tested, start=start)
     trained_on = ws.data(entry.trained_on, entry.draws)
     if entry.replicated:  # one run per seed, each its own method; their rows are summarised with intervals
         runs = [ws.train(s, trained_on) for s in entry.spec.replicates()]
@@ -335,26 +374,77 @@ def build_method(entry, ws: Workspace, done: dict) -> Outcome:
     return Outcome(entry, method, runs, tested)
 
 
+def entry_runs(outcome) -> list:
+    """The trainings an outcome's rows measure: its runs, or for a refinement those of the entry it refines (a
+    replicated one's first seed, the one refined); none for a baseline.
+    """
+    if outcome.runs:
+        return list(outcome.runs)
+    start = outcome.start
+    if start is None:
+        return []
+    return list(start.runs[:1]) if start.entry.replicated else list(start.runs)
+
+
 def run_entries(
-    entries, ws: Workspace, *, extra: dict | None = None, done: dict | None = None, saved=None, per_shape: bool = False
+    entries,
+    ws: Workspace,
+    *,
+    extra: dict | None = None,
+    done: dict | None = None,
+    saved=None,
+    per_shape: bool = False,
+    context: dict | None = None,
+    earlier=(),
 ):
     """Build each entry's method (:func:`build_method`) and evaluate it on its test sets into rows; returns the rows
     and the outcomes (key → :class:`Outcome`). ``saved(rows)``: called after each entry with the rows so far (so an
     interruption loses one entry's work at most). ``per_shape``: every row holds its per-shape errors (a row over
     seeds always does), so that a baseline can be compared with the networks (:func:`opnet.experiments.compare`).
+
+    Each row gets a ``provenance`` (:func:`opnet.experiments.provenance.record`: its runs, their checkpoints' SHA-256,
+    seeds, and ``context``'s commit, date, machine and preset) and, for a trained method, ``convergence`` (one
+    :func:`opnet.train.convergence` per run). ``earlier``: rows of an earlier call; an entry whose earlier rows have
+    the ``inputs`` digest it has now (the same checkpoints, data and evaluation settings) keeps them instead of being
+    evaluated again.
     """
     from ..evaluate import test_sets_for
+    from .provenance import inputs_digest, record
 
     done = {} if done is None else done
+    context = context or {}
     rows = []
     for entry in entries:
         outcome = build_method(entry, ws, done)
         done[entry.key] = outcome
-        test_sets = entry.test_sets or test_sets_for(outcome.tested_on)
-        if outcome.methods:  # one row per test set over the seeds (its run: all their runs, joined)
-            rows += evaluate_seeds(outcome.tested_on, outcome.methods, test_sets, extra=extra)
+        test_sets = list(entry.test_sets or test_sets_for(outcome.tested_on))
+        runs = entry_runs(outcome)
+        inputs = inputs_digest(
+            entry=entry.key,
+            fields=entry.run_fields() if entry.refines is None else entry.refines,
+            table=entry.table,
+            tested_on=entry.tested_on,
+            test_sets=test_sets,
+            checkpoints=[r.checkpoint for r in runs],
+            data=ws.fingerprint(outcome.tested_on),
+            budget=[ws.budget.refine_steps, ws.budget.refine_shapes],  # what it evaluates with (trained: checkpoints)
+            per_shape=per_shape or bool(outcome.methods),
+            extra=extra,
+        )
+        kept = [
+            r for r in earlier if r.get("entry") == entry.key and (r.get("provenance") or {}).get("inputs") == inputs
+        ]
+        if sorted(r.get("split") for r in kept) == sorted(test_sets):
+            new = kept  # measured by an earlier call on these very checkpoints and data
         else:
-            rows += evaluate(outcome.tested_on, [outcome.method], test_sets, extra=extra, per_shape=per_shape)
+            if outcome.methods:  # one row per test set over the seeds (its run: all their runs, joined)
+                new = evaluate_seeds(outcome.tested_on, outcome.methods, test_sets, extra=extra)
+            else:
+                new = evaluate(outcome.tested_on, [outcome.method], test_sets, extra=extra, per_shape=per_shape)
+            convergence = [r.convergence for r in runs if r.convergence is not None] if outcome.runs else None
+            prov = record(runs, context, inputs)
+            new = [dict(r, provenance=prov, **({"convergence": convergence} if convergence else {})) for r in new]
+        rows += new
         if ws.bar is not None:
             ws.bar.update(1)
         if saved is not None:

@@ -20,6 +20,7 @@ from ..inner_products import (
     split_channels,
 )
 from ..shape_difference import CHANNEL_SETS, KINDS
+from ..train.config import SCHEDULES
 
 __all__ = ["RunSpec", "VARIANTS", "ARCHITECTURES"]
 
@@ -41,6 +42,7 @@ class RunSpec:
     variant : ``"paper"`` or ``"ours"`` (:data:`opnet.model.VARIANTS`).
     architecture : ``"operatornet"`` or ``"pointnet"``.
     epochs, batch_size, lr, hidden, seed : the budget and the seed (:func:`opnet.train.fit`).
+    schedule : the learning rate over the run (:data:`opnet.train.SCHEDULES`; default ``None``: the variant's).
     seeds : the seeds of replicate trainings of the same network (e.g. ``(0, 1, 2)``; default: ``seed`` alone); each
         is a run of its own (:meth:`replicates`), and their rows are summarised with intervals
         (:mod:`opnet.experiments.stats`).
@@ -58,6 +60,7 @@ class RunSpec:
     lr: float = 1e-3
     hidden: int = 1024
     seed: int = 0
+    schedule: str | None = None
     seeds: tuple = ()
     group: str = "run"
     name: str | None = None
@@ -88,6 +91,8 @@ class RunSpec:
         if seeds and self.seed != 0:
             raise ValueError(f"give seed={self.seed} or seeds={seeds}, not both (seeds lists every seed to train).")
         object.__setattr__(self, "seeds", seeds)
+        if self.schedule is not None and self.schedule not in SCHEDULES:
+            raise ValueError(f"schedule must be None (the variant's) or one of {SCHEDULES}, got {self.schedule!r}.")
         if not re.fullmatch(r"[A-Za-z0-9_.+-]+", self.group):
             raise ValueError(f"group must be a folder-name prefix (letters, digits, _ . + -), got {self.group!r}.")
 
@@ -149,9 +154,18 @@ class RunSpec:
             return (self,)
         return tuple(replace(self, seed=s, seeds=()) for s in self.seeds)
 
-    def run_dir(self, root) -> Path | None:
-        """``root / run_name`` (``None`` when ``root`` is ``None``: trained in memory, nothing written)."""
-        return None if root is None else Path(root) / self.run_name
+    def run_id(self, collection) -> str:
+        """The name of its run's folder: :attr:`run_name`, then ``-`` and :func:`opnet.train.run_digest` of its
+        :meth:`fit_options` on ``collection`` (everything that sets its weights: settings, data, channel digests), so
+        that a changed budget, collection or channel never meets an old run. Rows record it in their ``provenance``.
+        """
+        from ..train import run_digest
+
+        return f"{self.run_name}-{run_digest(collection, **self.fit_options())}"
+
+    def run_dir(self, root, collection) -> Path | None:
+        """``root / run_id(collection)`` (``None`` when ``root`` is ``None``: trained in memory, nothing written)."""
+        return None if root is None else Path(root) / self.run_id(collection)
 
     def fit_options(self) -> dict:
         """The keyword arguments of :func:`opnet.train.fit` this spec stands for (without the collection); a spec
@@ -160,6 +174,8 @@ class RunSpec:
         if self.seeds:
             raise ValueError(f"{self.label} declares the seeds {self.seeds}: train each of spec.replicates().")
         common = dict(epochs=self.epochs, batch_size=self.batch_size, lr=self.lr, hidden=self.hidden, seed=self.seed)
+        if self.schedule is not None:
+            common["schedule"] = self.schedule
         if self.architecture == "pointnet":
             return dict(common, architecture="pointnet", **self.options)
         return dict(common, channels=list(self.channels), depth=self.depth, variant=self.variant, **self.options)

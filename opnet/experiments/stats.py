@@ -124,12 +124,13 @@ def paired_difference(a, b, *, names=("a", "b"), level: float = LEVEL, verdict: 
 METRICS = ("d_R", "d_V", "d_E")
 
 
-def summarize_seeds(rows: list[dict], *, level: float = LEVEL) -> dict:
+def summarize_seeds(rows: list[dict], *, level: float = LEVEL, metrics=METRICS) -> dict:
     """One row from the rows of one method on one test set, one per training seed (each with per-shape errors,
     ``opnet.evaluate.evaluate(..., per_shape=True)``, on the same shapes): the first's fields, and for each of
-    :data:`METRICS` the mean over seeds and shapes, its ``_std`` over seeds, its interval ``_low`` / ``_high``
-    (:func:`interval`), each seed's mean ``_seeds`` and the per-seed, per-shape errors ``_shapes``; ``seeds`` lists
-    the seeds, ``runs`` their runs, ``train_seconds`` their sum.
+    ``metrics`` (default :data:`METRICS`; the applications' rows have others, e.g. ``smoothness``) the mean over seeds
+    and shapes, its ``_std`` over seeds, its interval ``_low`` / ``_high`` (:func:`interval`), each seed's mean
+    ``_seeds`` and the per-seed, per-shape errors ``_shapes``; ``seeds`` lists the seeds, ``runs`` their runs,
+    ``train_seconds`` their sum.
     """
     if not rows:
         raise ValueError("summarize_seeds needs the rows of at least one seed.")
@@ -139,12 +140,14 @@ def summarize_seeds(rows: list[dict], *, level: float = LEVEL) -> dict:
             "each seed's row needs its per-shape errors on the same shapes: evaluate(..., per_shape=True)."
         )
     out = dict(rows[0])
-    for metric in METRICS:
+    for metric in metrics:
         values = np.array([r[f"{metric}_shapes"] for r in rows], dtype=np.float64)
         finite = np.isfinite(values).all()  # d_V of an open mesh is NaN: no interval
         iv = interval(values, level=level) if finite else None
-        out[metric] = float(np.mean(values)) if finite else float("nan")
-        out[f"{metric}_median"] = float(np.median(values)) if finite else float("nan")
+        # not finite (d_V of an open mesh, a path that does not move): over the finite values, and no interval
+        some = np.isfinite(values).any()
+        out[metric] = float(np.mean(values) if finite else np.nanmean(values) if some else np.nan)
+        out[f"{metric}_median"] = float(np.median(values) if finite else np.nanmedian(values) if some else np.nan)
         out |= {f"{metric}_std": None, f"{metric}_low": None, f"{metric}_high": None, f"{metric}_seeds": None}
         if iv is not None:
             out |= {f"{metric}_std": iv.std, f"{metric}_low": iv.low, f"{metric}_high": iv.high}
@@ -169,12 +172,17 @@ def _errors(row: dict, metric: str) -> np.ndarray:
     return np.atleast_2d(np.asarray(values, dtype=np.float64))
 
 
-def compare(rows, a: dict, b: dict, *, metric: str = "d_R", split: str = "test", level: float = LEVEL) -> Comparison:
+def compare(
+    rows, a: dict, b: dict, *, metric: str = "d_R", split: str = "test", level: float = LEVEL, factor: float = 1.0
+) -> Comparison:
     """The paired comparison (:func:`paired_difference`) of the method whose rows have the fields ``a`` against the
     one with ``b`` (:func:`opnet.experiments.rows.matches`), on ``split``: the same shapes, seed by seed (a
     deterministic method of one row, a baseline, stands beside each seed of the other). The verdict says which has the
-    lower ``metric``.
+    lower ``metric``. ``factor``: compare ``a`` with ``factor`` times ``b`` (the difference ``a − factor·b``), for a
+    claim such as "within 5× of" (``factor=5``) or "ten times better than" (``factor=0.1``).
     """
+    if not (isinstance(factor, (int, float)) and not isinstance(factor, bool) and factor > 0):
+        raise ValueError(f"factor must be a number > 0 (1: a plain comparison), got {factor!r}.")
     from .rows import matches
 
     def find(fields):
@@ -199,4 +207,5 @@ def compare(rows, a: dict, b: dict, *, metric: str = "d_R", split: str = "test",
     elif len(trained) == 2 and ra.get("seeds") != rb.get("seeds"):
         raise ValueError(f"the rows' seeds differ ({ra.get('seeds')} and {rb.get('seeds')}): pair them seed by seed.")
     enough = all(len(_errors(r, metric)) > 1 for r in trained)  # one training cannot tell another's spread
-    return paired_difference(x, y, names=(ra.get("method"), rb.get("method")), level=level, verdict=enough)
+    names = (ra.get("method"), rb.get("method") if factor == 1 else f"{factor:g} × {rb.get('method')}")
+    return paired_difference(x, factor * y, names=names, level=level, verdict=enough)

@@ -21,6 +21,8 @@ __all__ = [
     "discretisation_rows",
     "application_methods",
     "applications_rows",
+    "seeded_applications_rows",
+    "PATH_METRICS",
     "refinement_curves",
 ]
 
@@ -91,7 +93,7 @@ def discretisation_rows(
         methods = [
             operatornet_method(net, c, name, info={**fields.get(name, {}), **where}) for name, net in nets.items()
         ]
-        rows += evaluate(c, methods, ("test",), extra=extra)
+        rows += evaluate(c, methods, ("test",), extra=extra, per_shape=True)  # the claims pair them
     if out is not None:
         picked = {name: nets[name] for name in shown if name in nets} or nets
         plotter = discretisation_figure(encodings["5k", "computed"], picked)
@@ -137,20 +139,22 @@ def application_methods(coll, runs: dict, budget, *, refine: bool = True, device
     return methods
 
 
-def applications_rows(coll, methods, budget, *, out=None, progress=None, seed: int = 0) -> list[dict]:
+def applications_rows(
+    coll, methods, budget, *, out=None, progress=None, seed: int = 0, per_shape: bool = False
+) -> list[dict]:
     """Run the ground-truth analogy (``budget.analogies`` questions per kind) and interpolation (``budget.paths``
     paths of 11 steps per kind) benchmarks of :mod:`opnet.apps`; rows get ``table`` ``"analogy"`` or
     ``"interpolation"`` and their method's fields (:func:`application_methods`). With ``out``, also writes
-    ``interpolation_<kind>.png`` and ``analogy_<kind>.png`` there.
+    ``interpolation_<kind>.png`` and ``analogy_<kind>.png`` there. ``seed`` draws the questions and paths;
+    ``per_shape``: rows hold per-question and per-path values (:func:`opnet.apps.analogy_benchmark`).
     """
     from .. import apps
 
     quads = [apps.analogy_quadruples(coll, kind, budget.analogies, seed=seed) for kind in apps.ANALOGY_KINDS]
     paths = [apps.interpolation_paths(coll, kind, budget.paths, seed=seed) for kind in apps.PATH_KINDS]
-    rows = [dict(r, table="analogy") for r in apps.analogy_benchmark(coll, methods, quads, progress=progress)]
-    rows += [
-        dict(r, table="interpolation") for r in apps.interpolation_benchmark(coll, methods, paths, progress=progress)
-    ]
+    each = dict(progress=progress, per_shape=per_shape)
+    rows = [dict(r, table="analogy") for r in apps.analogy_benchmark(coll, methods, quads, **each)]
+    rows += [dict(r, table="interpolation") for r in apps.interpolation_benchmark(coll, methods, paths, **each)]
     if out is not None:
         application_figures(Path(out), coll, methods, quads, paths)
     return [dict(r, preset=coll.meta.get("preset")) for r in rows]
@@ -164,3 +168,40 @@ def refinement_curves(coll, idx, inits: dict, steps: int, snapshot_steps=(), *, 
     ``opnet.experiments.figures.refinement_curves`` with the reproduction's :data:`~opnet.experiments.baselines.REFINE`.
     """
     return _curves(coll, idx, inits, steps, snapshot_steps, device=device, **REFINE)
+
+
+#: The metrics of the interpolation rows that a row over seeds summarises (:func:`seeded_applications_rows`).
+PATH_METRICS = ("smoothness", "distortion", "d_R_truth", "endpoint_d_R")
+
+
+def seeded_applications_rows(coll, runs_per_seed: list[dict], budget, *, refine=True, device="cpu", out=None,
+                             progress=None) -> list[dict]:  # fmt: skip
+    """The applications' rows over several trainings of each network: :func:`applications_rows` (with per-question
+    and per-path values) for each seed's networks (``runs_per_seed``: one ``{entry key: Run}`` per seed, as
+    :func:`application_methods` takes), on the same questions and paths, then each method's rows summarised over the
+    seeds (:func:`opnet.experiments.stats.summarize_seeds`: mean, spread, interval; the analogy's d_R, d_V, d_E and the
+    interpolation's :data:`PATH_METRICS`). A method that trains nothing (NN, the ground truth) is the same in every
+    seed: its first row is kept. Figures (``out``) are drawn from the first seed's networks.
+    """
+    from .stats import summarize_seeds
+
+    each = []
+    for i, runs in enumerate(runs_per_seed):
+        methods = application_methods(coll, runs, budget, refine=refine, device=device)
+        rows = applications_rows(coll, methods, budget, out=out if i == 0 else None, progress=progress, per_shape=True)
+        each.append([dict(r, seed=runs["int+ext"].spec.seed) for r in rows])
+    out_rows = []
+    for group in zip(*each, strict=True):
+        first = group[0]
+        if first.get("run") is None:  # NN or the ground truth: deterministic
+            out_rows.append({k: v for k, v in first.items() if k != "seed"})
+            continue
+        metrics = PATH_METRICS if first["table"] == "interpolation" else ("d_R", "d_V", "d_E")
+        row = summarize_seeds(list(group), metrics=metrics)
+        for key, over_seeds in (("d_R_direct", np.mean), ("d_R_before", np.mean), ("smoothness_max", np.nanmax)):
+            if first.get(key) is not None:  # a scalar of each seed's: over the seeds, not the first's alone
+                row[key] = float(over_seeds([r[key] for r in group]))
+        if "stuck_paths" in first:
+            row["stuck_paths"] = int(sum(r["stuck_paths"] for r in group))
+        out_rows.append(row)
+    return out_rows

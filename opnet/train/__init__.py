@@ -28,6 +28,7 @@ from ..devices import resolve_device
 from ..model import rigid_alignment_loss
 from ..shape_difference import CHANNEL_SETS
 from .config import SCHEDULES, TrainConfig, parse_channels
+from .curves import Convergence, convergence
 from .loop import TrainingError, adam, placement, run_epochs
 from .network import build_network, training_data
 from .rundir import (
@@ -36,19 +37,25 @@ from .rundir import (
     RunDir,
     RunState,
     checkpoint_path,
+    checkpoint_sha256,
     collection_fingerprint,
     load_model,
     model_from_checkpoint,
     read_checkpoint,
     read_history,
     run_config,
+    run_digest,
 )
 
 __all__ = [
     "fit",
+    "convergence",
+    "Convergence",
     "load_model",
     "read_history",
     "collection_fingerprint",
+    "run_digest",
+    "checkpoint_sha256",
     "parse_channels",
     "resolve_device",
     "TrainingError",

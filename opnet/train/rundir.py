@@ -49,6 +49,8 @@ __all__ = [
     "RUN_FILES",
     "FINGERPRINT_VERSION",
     "collection_fingerprint",
+    "run_digest",
+    "checkpoint_sha256",
     "run_config",
     "read_checkpoint",
     "checkpoint_path",
@@ -146,6 +148,66 @@ def _data_config(collection, channels, version: int = FINGERPRINT_VERSION) -> di
             else [],
         )
     return out
+
+
+#: The fields of :class:`~opnet.train.TrainConfig` that do not set a run's weights (where it runs, how often it is
+#: checkpointed), left out of :func:`run_digest`.
+NOT_WEIGHTS = ("device", "checkpoint_every")
+
+
+def run_digest(collection, **fit_options) -> str:
+    """A digest of everything that sets the weights of ``fit(collection, **fit_options)``: 10 hex digits of SHA-256
+    over the training settings (every field of :class:`~opnet.train.TrainConfig` but the device and the checkpoint
+    interval, with the channels by name and the schedule and PointNet points resolved), the data the network reads
+    (the collection's identity and the fingerprint of its arrays, :func:`collection_fingerprint`), its channels'
+    implementation digests and the training code's version (``TRAINING_VERSION``).
+
+    Two calls of :func:`opnet.train.fit` with one digest train the same weights, bit for bit, on one machine (a test
+    says so); a changed budget, collection or channel implementation gives another digest. The reproduction names
+    each run's folder by it (:meth:`opnet.experiments.RunSpec.run_dir`), so a changed setting never meets an old run.
+
+    Parameters
+    ----------
+    collection : opnet.data.Collection
+        The data trained on.
+    **fit_options
+        The keyword arguments of :func:`opnet.train.fit` (``channels``, ``epochs``, ``lr``, ``seed``...).
+
+    Returns
+    -------
+    str
+        10 hex digits.
+    """
+    from .config import TrainConfig
+
+    config = TrainConfig(**fit_options)
+    channels = config.channel_names(collection)
+    train = {k: v for k, v in config.as_kwargs().items() if k not in NOT_WEIGHTS}
+    train.update(
+        channels=list(channels),
+        schedule=config.lr_schedule,
+        n_points=config.points if config.pointnet else None,
+        lr=float(config.lr),
+        operator_noise=float(config.operator_noise),
+        version=TRAINING_VERSION,
+    )
+    record = dict(train=train, data=comparable(_data_config(collection, channels)))
+    return hashlib.sha256(json.dumps(record, sort_keys=True, default=str).encode()).hexdigest()[:10]
+
+
+def checkpoint_sha256(path) -> str:
+    """SHA-256 (hex) of a checkpoint file's bytes: a run directory's ``best.pt`` (``path`` a run directory) or a
+    ``.pt`` file. ``best.pt`` holds no timings, so one training on one machine always gives the same bytes: its
+    digest names the training (what the reproduction's rows record in their ``provenance``).
+    """
+    path = checkpoint_path(path)
+    if not path.is_file():
+        raise CheckpointError(f"no checkpoint at {path}: train the run first, or check the path.")
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def comparable(data: dict) -> dict:

@@ -1,0 +1,146 @@
+"""Where a row comes from: the trainings it measured (run ids and the SHA-256 of each ``best.pt``), its seeds, the
+code (commit), date, machine and preset, and a digest of everything its numbers depend on.
+
+Every row that :func:`opnet.experiments.runner.run_entries` and ``reproduce``'s steps write carries a
+``provenance`` dict (:func:`record`). ``reproduce`` uses it twice: a row whose ``inputs`` digest equals what it
+would measure now is kept instead of evaluated again (a stopped reproduction resumes without repeating its
+evaluations), and a row kept from an earlier call whose recorded checkpoints are no longer its runs' current ones
+is dropped (:func:`current`), so that one results file never mixes trainings under one run.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import subprocess
+from pathlib import Path
+
+__all__ = [
+    "EVALUATION_VERSION",
+    "code_version",
+    "machine",
+    "stamp",
+    "record",
+    "inputs_digest",
+    "current",
+    "run_checkpoints",
+]
+
+
+#: Bump when a change to the evaluation code changes what a row of the same checkpoints and data measures: every
+#: :func:`inputs_digest` holds it, so rows of an older version are measured again instead of kept.
+EVALUATION_VERSION = 1
+
+
+@functools.cache
+def code_version() -> str | None:
+    """The git commit of the opnet source tree it runs from, with ``-dirty`` when tracked files differ from it;
+    ``None`` for an installed package (no git checkout) or without git.
+    """
+    root = Path(__file__).resolve().parents[2]
+    if not (root / ".git").exists():
+        return None
+    try:
+        head = subprocess.run(
+            ["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10, check=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head + ("-dirty" if dirty else "")
+
+
+def machine(device) -> str:
+    """What a measurement ran on, in words: the GPU's name (CUDA) or the CPU's architecture, cores and torch threads,
+    and torch's version.
+    """
+    import os
+    import platform
+
+    import torch
+
+    device = torch.device(device)
+    if device.type == "cuda":
+        return f"{torch.cuda.get_device_name(device)} (CUDA), torch {torch.__version__}"
+    return (
+        f"CPU ({platform.machine()}, {os.cpu_count()} cores, {torch.get_num_threads()} torch threads), "
+        f"torch {torch.__version__}"
+    )
+
+
+def stamp(device, collection=None) -> dict:
+    """The ``commit`` (:func:`code_version`), ``date`` (today), ``machine`` (:func:`machine` of ``device``) and
+    ``preset`` (the collection's) that a call's rows record in their :func:`record`.
+    """
+    import time
+
+    from ..devices import resolve_device
+
+    preset = None if collection is None else collection.meta.get("preset")
+    return dict(
+        commit=code_version(), date=time.strftime("%Y-%m-%d"), machine=machine(resolve_device(device)), preset=preset
+    )
+
+
+def inputs_digest(**parts) -> str:
+    """16 hex digits of SHA-256 over ``parts`` (JSON with sorted keys; anything else by ``str``): what a row's numbers
+    depend on (the entry, the checkpoints, the data, the evaluation settings; and :data:`EVALUATION_VERSION`), in its
+    ``provenance["inputs"]``.
+    """
+    parts = dict(parts, evaluation_version=EVALUATION_VERSION)
+    return hashlib.sha256(json.dumps(parts, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def record(runs, context: dict, inputs: str) -> dict:
+    """A row's ``provenance``.
+
+    Parameters
+    ----------
+    runs : sequence of opnet.experiments.runner.Run
+        The trainings the row measured (none for a baseline).
+    context : dict
+        ``commit``, ``date``, ``machine`` and ``preset`` of the call that measures it.
+    inputs : str
+        :func:`inputs_digest` of what its numbers depend on.
+
+    Returns
+    -------
+    dict
+        ``runs`` (run ids: the folders' names), ``checkpoints`` (the SHA-256 of each run's ``best.pt``, in order),
+        ``seeds``, ``commit``, ``date``, ``machine``, ``preset``, ``inputs``.
+    """
+    return dict(
+        runs=[r.run_id for r in runs],
+        checkpoints=[r.checkpoint for r in runs],
+        seeds=[r.spec.seed for r in runs],
+        **{k: context.get(k) for k in ("commit", "date", "machine", "preset")},
+        inputs=inputs,
+    )
+
+
+def run_checkpoints(runs_root) -> dict:
+    """``{run id: SHA-256 of its best.pt}`` for every run folder under ``runs_root`` that has one."""
+    from ..train import checkpoint_sha256
+
+    root = Path(runs_root)
+    if not root.is_dir():
+        return {}
+    return {p.parent.name: checkpoint_sha256(p) for p in sorted(root.glob("*/best.pt"))}
+
+
+def current(row: dict, checkpoints: dict) -> bool:
+    """Whether ``row`` measured the trainings that are its runs' current ones: it has a ``provenance`` and each run it
+    records has, in ``checkpoints`` (:func:`run_checkpoints`), the SHA-256 it recorded. A row without one (written
+    before rows recorded their trainings) cannot say, so it is not current.
+    """
+    prov = row.get("provenance")
+    if not isinstance(prov, dict):
+        return False
+    return all(checkpoints.get(run) == sha for run, sha in zip(prov["runs"], prov["checkpoints"], strict=True))
