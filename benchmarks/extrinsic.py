@@ -50,6 +50,7 @@ def parse_args(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--preset", default="quick", help="collection and budget preset (quick | default | paper)")
     ap.add_argument("--out", required=True, help="folder for the run directories (reused to resume)")
+    ap.add_argument("--sets", nargs="+", default=list(SETS), choices=list(SETS), help="channel sets trained (all)")
     ap.add_argument("--seeds", type=int, default=3, help="trainings of each network (seeds 0 ... N-1; 3)")
     ap.add_argument("--epochs", type=int, default=None, help="epochs of each network (default the budget's)")
     ap.add_argument("--jobs", type=int, default=1, help="input kinds trained side by side, each in a process (1)")
@@ -85,7 +86,7 @@ def analysis(coll) -> dict:
     )
 
 
-def _train(preset, out, kind, seeds, epochs, threads) -> list[dict]:
+def _train(preset, out, kind, sets, seeds, epochs, threads) -> list[dict]:
     """The networks of one input kind (raw or standardised), each set with each seed, evaluated on ``val``."""
     import torch
 
@@ -97,7 +98,7 @@ def _train(preset, out, kind, seeds, epochs, threads) -> list[dict]:
     coll = opnet.data.load_collection("humans", preset, progress=False)
     rows = opnet.ablation(
         coll,
-        list(SETS.values()),
+        [SETS[name] for name in sets],
         depths=[1],
         epochs=epochs or budget.epochs,
         seeds=seeds,
@@ -125,7 +126,7 @@ def measure(args) -> dict:
     found = analysis(coll)
     with ProcessPoolExecutor(max_workers=args.jobs, mp_context=get_context("spawn")) as pool:
         futures = {
-            kind: pool.submit(_train, args.preset, args.out, kind, args.seeds, args.epochs, args.threads)
+            kind: pool.submit(_train, args.preset, args.out, kind, args.sets, args.seeds, args.epochs, args.threads)
             for kind in INPUTS
         }
         rows = {kind: f.result() for kind, f in futures.items()}
@@ -133,6 +134,8 @@ def measure(args) -> dict:
     for kind, mine in rows.items():
         table = Results(mine)
         for a, b in (("A+E+C", "A+C"), ("A+E+C", "Ext"), ("Ext", "A+C")):
+            if not {_SHORT[a], _SHORT[b]} <= set(args.sets):
+                continue
             c = table.compare(a, b, split="val")
             comparisons[f"{kind}: {a} vs {b}"] = dict(
                 a=a, b=b, inputs=kind, mean=c.difference.mean, low=c.difference.low, high=c.difference.high,
@@ -150,6 +153,7 @@ def measure(args) -> dict:
             "lr": budget.lr,
             "schedule": budget.schedule or "constant",
             "seeds": args.seeds,
+            "sets": list(args.sets),
             "jobs": args.jobs,
             "threads": args.threads,
         },

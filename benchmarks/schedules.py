@@ -149,6 +149,7 @@ def summary(rows: list[dict]) -> dict:
             epochs=mine[0]["epochs"],
             schedule=mine[0]["schedule"],
             seconds=float(np.mean([r["train_s"] for r in mine])),
+            tail=(min(r["tail_ratio"] for r in mine), max(r["tail_ratio"] for r in mine)),
         )
     return out
 
@@ -177,17 +178,18 @@ def report(result: dict) -> str:
         f"humans at `{c['preset']}` ({c['train_shapes']} `train`, {c['val_shapes']} `val` shapes), the paper's "
         f"network (Int+Ext, depth {c['depth']}), batch {c['batch_size']}, peak lr {c['lr']:g}, seeds "
         f"{', '.join(map(str, c['seeds']))}: best `val` d_R ×10⁻⁴ (mean ± standard deviation over seeds, and the "
-        "range), how many seeds converged (last 10 % of the epochs within 5 % of the run's best), and the mean "
-        "training time per seed.",
+        "range), how many seeds converged (last 10 % of the epochs within 5 % of the run's best), the worst of those "
+        "epochs over the run's best (the range over seeds), and the mean training time per seed.",
         "",
-        "| candidate | schedule | epochs | best val d_R | range | converged | train s |",
-        "|---|---|---:|---:|---:|---:|---:|",
+        "| candidate | schedule | epochs | best val d_R | range | converged | last 10 % / best | train s |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
     ]
     for name, v in s.items():
         std = "" if v["std"] is None else f" ± {1e4 * v['std']:.3f}"
         out.append(
             f"| {name} | {v['schedule']} | {v['epochs']} | {1e4 * v['mean']:.3f}{std} | "
-            f"{1e4 * v['min']:.3f}–{1e4 * v['max']:.3f} | {v['n_converged']}/{v['seeds']} | {v['seconds']:.0f} |"
+            f"{1e4 * v['min']:.3f}–{1e4 * v['max']:.3f} | {v['n_converged']}/{v['seeds']} | "
+            f"{v['tail'][0]:.2f}–{v['tail'][1]:.2f} | {v['seconds']:.0f} |"
         )
     chosen = choose(rows)
     out += ["", f"Chosen by the rule: **{chosen}**." if chosen else "No candidate converged on every seed."]

@@ -56,7 +56,8 @@ class Budget:
     ``schedule`` (:data:`opnet.train.SCHEDULES`) is the learning rate over a run of the paper's network and the
     PointNet autoencoder; ``None``: each variant's own (constant for the paper's, one-cycle for ours). Our variant
     always trains with its one-cycle schedule. ``seeds``: the trainings of each network a reproduction at this
-    preset makes by default (``reproduce --seeds``); ``ablation_grid``: its ablation's grid (:data:`ABLATION_GRIDS`).
+    preset makes by default (``reproduce --seeds``); ``ablation_grid``: its ablation's grid
+    (:data:`~opnet.experiments.plan.ABLATION_GRIDS`).
     """
 
     epochs: int

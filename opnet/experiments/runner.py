@@ -312,7 +312,7 @@ class Workspace:
 
     def fingerprint(self, collection) -> str:
         """:func:`opnet.train.collection_fingerprint` of one of this workspace's collections, computed once: its shapes
-        and the operators of its channels but the :attr:`extra_channels` (those added for the ablation's sets of one's
+        and the operators of its channels but its ``extra_channels`` (those added for the ablation's sets of one's
         own, which only their own networks read: asking for one does not make the other rows new).
         """
         from ..train import collection_fingerprint
