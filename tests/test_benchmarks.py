@@ -74,7 +74,16 @@ def test_the_schedule_rule_takes_the_best_converged_candidate_and_fewer_epochs_w
 
     def rows(name, epochs, vals, converged=True):
         return [
-            dict(candidate=name, schedule="x", epochs=epochs, seed=s, best_val=v, converged=converged, train_s=1.0)
+            dict(
+                candidate=name,
+                schedule="x",
+                epochs=epochs,
+                seed=s,
+                best_val=v,
+                converged=converged,
+                train_s=1.0,
+                tail_ratio=1.0 if converged else 2.0,
+            )  # fmt: skip
             for s, v in enumerate(vals)
         ]
 

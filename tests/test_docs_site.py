@@ -25,6 +25,8 @@ RESULT_PAGES = {
     "refinement": "results",
     "scaling": "results",
     "variants": "results",
+    "schedules": "results",
+    "extrinsic": "results",
     "offset_channels": "inner_products",
     "generalisation": "results",
 }
