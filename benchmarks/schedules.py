@@ -35,7 +35,6 @@ import numpy as np
 from shape_differences import load_span, measured, run_benchmark, torch_machine_info
 
 import opnet
-from opnet.train.curves import TAIL, TOLERANCE
 
 #: name → (schedule, epochs): the candidates (the preset's batch size and peak learning rate for all).
 CANDIDATES = {
@@ -93,6 +92,7 @@ def _train(preset: str, out: str, name: str, seed: int, threads: int | None) -> 
 def measure(args) -> dict:
     """Run the benchmark described by ``args`` (:func:`parse_args`); everything it measured, as JSON-able data."""
     from opnet.experiments.plan import BUDGETS
+    from opnet.train.curves import TAIL, TOLERANCE
 
     info = torch_machine_info()
     budget = BUDGETS[args.preset]

@@ -20,7 +20,6 @@ from ..inner_products import (
     split_channels,
 )
 from ..shape_difference import CHANNEL_SETS, KINDS
-from ..train.config import SCHEDULES
 
 __all__ = ["RunSpec", "VARIANTS", "ARCHITECTURES"]
 
@@ -42,7 +41,8 @@ class RunSpec:
     variant : ``"paper"`` or ``"ours"`` (:data:`opnet.model.VARIANTS`).
     architecture : ``"operatornet"`` or ``"pointnet"``.
     epochs, batch_size, lr, hidden, seed : the budget and the seed (:func:`opnet.train.fit`).
-    schedule : the learning rate over the run (:data:`opnet.train.SCHEDULES`; default ``None``: the variant's).
+    schedule : the learning rate over the run (:data:`opnet.train.SCHEDULES`; default ``None``: the variant's), checked
+        by :class:`opnet.train.TrainConfig` when the run's folder is named or trained.
     seeds : the seeds of replicate trainings of the same network (e.g. ``(0, 1, 2)``; default: ``seed`` alone); each
         is a run of its own (:meth:`replicates`), and their rows are summarised with intervals
         (:mod:`opnet.experiments.stats`).
@@ -91,8 +91,8 @@ class RunSpec:
         if seeds and self.seed != 0:
             raise ValueError(f"give seed={self.seed} or seeds={seeds}, not both (seeds lists every seed to train).")
         object.__setattr__(self, "seeds", seeds)
-        if self.schedule is not None and self.schedule not in SCHEDULES:
-            raise ValueError(f"schedule must be None (the variant's) or one of {SCHEDULES}, got {self.schedule!r}.")
+        if self.schedule is not None and not isinstance(self.schedule, str):  # its name: TrainConfig checks it
+            raise ValueError(f"schedule must be None (the variant's) or a schedule's name, got {self.schedule!r}.")
         if not re.fullmatch(r"[A-Za-z0-9_.+-]+", self.group):
             raise ValueError(f"group must be a folder-name prefix (letters, digits, _ . + -), got {self.group!r}.")
 
