@@ -55,7 +55,7 @@ from .experiments.plan import (
     select,
     spec,
 )
-from .experiments.provenance import code_version, current, inputs_digest, machine, record, run_checkpoints
+from .experiments.provenance import current, inputs_digest, record, run_checkpoints, stamp
 from .experiments.report import ablation_table, merge_results, read_results, results_markdown, write_results
 from .experiments.runner import Workspace, run_entries
 from .experiments.spec import RunSpec
@@ -162,7 +162,7 @@ def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> l
     coll = coll.with_channels([*coll.channels, *new]) if new else coll  # computed once, cached beside it
     context = _context(config, coll, device, plan)
 
-    stamp = {k: context[k] for k in ("commit", "date", "machine", "preset")}  # each row's provenance
+    row_stamp = {k: context[k] for k in ("commit", "date", "machine", "preset")}  # each row's provenance
     before = earlier[0] if earlier is not None else []
 
     def save(rows):  # results.json/md: this call's rows, and an earlier call's that it did not measure again
@@ -178,12 +178,12 @@ def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> l
     extra = dict(preset=config.preset)
     first = [e for e in plan.entries if e.table != "ablation"]
     each = config.seeds > 1  # rows then hold their per-shape errors: the claims compare them
-    options = dict(extra=extra, per_shape=each, context=stamp, earlier=before)
+    options = dict(extra=extra, per_shape=each, context=row_stamp, earlier=before)
     rows, done = run_entries(first, ws, saved=save, **options)
     if figures is not None:
         _figures(figures, ws, done, config.refine)
     for step in plan.steps:
-        rows += _step(step.key, ws, done, figures, extra, refine=config.refine, context=stamp, earlier=before)
+        rows += _step(step.key, ws, done, figures, extra, refine=config.refine, context=row_stamp, earlier=before)
         bar.update(1)
         save(rows)
     ablation = [e for e in plan.entries if e.table == "ablation"]
@@ -200,12 +200,10 @@ def _context(config: ReproduceConfig, coll, device, plan) -> dict:
     its splits' sizes and the plan's entries.
     """
     return dict(
+        stamp(device),  # the machine, date and commit every row's provenance records too
         preset=config.preset,
         data=config.collection,
         budget=asdict(config.training),
-        machine=machine(device),
-        date=time.strftime("%Y-%m-%d"),
-        commit=code_version(),
         opnet_version=__version__,
         collection=repr(coll),
         splits={s: int(np.sum(coll.split == s)) for s in ("train", "val", "test", "test_subjects")},
