@@ -12,11 +12,12 @@ from concurrent.futures import ThreadPoolExecutor
 
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["usable_cores", "thread_map"]
+__all__ = ["usable_cores", "thread_map", "exit_with_parent"]
 
 # the one-thread BLAS while any thread_map runs, and the controller that found the BLAS libraries
 _STATE = {"limiter": None, "active": 0, "controller": None, "modules": -1}
 _LOCK = threading.Lock()
+_WATCHED: dict = {}  # the parent a worker process watches (exit_with_parent), once per process
 
 
 def usable_cores() -> int:
@@ -77,3 +78,20 @@ def thread_map(fn, items, *, threads: int | None = None, hold_blas: bool = True)
     finally:
         if hold_blas:
             _one_blas_thread(False)
+
+
+def exit_with_parent(interval: float = 2.0) -> None:
+    """In a worker process (joblib's, which outlive a killed parent until their task ends): end this process once the
+    one that started it is gone, checked every ``interval`` seconds in a daemon thread (started once per process).
+    What it was doing must be safe to stop at any moment, as a training is (it resumes from its last epoch).
+    """
+    if _WATCHED or not hasattr(os, "getppid"):
+        return
+    _WATCHED["parent"] = parent = os.getppid()
+
+    def watch():
+        while os.getppid() == parent:
+            threading.Event().wait(interval)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="opnet-exit-with-parent", daemon=True).start()

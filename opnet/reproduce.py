@@ -156,10 +156,7 @@ def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> l
             )
         earlier = (fresh, earlier[1])
     plan = plan_for(config)
-    coll = profile.load(config.preset, config.data_root, progress)
-    asked = {(c if isinstance(c, str) else c.name): c for e in plan.entries for s in e.runs for c in s.channels}
-    new = [get_inner_product(c) for name, c in asked.items() if name not in coll.channels]  # the ablation's own
-    coll = coll.with_channels([*coll.channels, *new]) if new else coll  # computed once, cached beside it
+    coll, new = _collection(config, plan)
     context = _context(config, coll, device, plan)
 
     row_stamp = {k: context[k] for k in ("commit", "date", "machine", "preset")}  # each row's provenance
@@ -174,6 +171,8 @@ def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> l
     extra_channels = [ip.name for ip in new]
     where = dict(device=device, data_root=config.data_root, progress=progress, bar=bar, extra_channels=extra_channels)
     ws = Workspace(coll, profile, out / "runs", budget, **where)
+    if config.jobs > 1:
+        _train_side_by_side(config, ws, plan.entries)
     figures = out / "figures" if config.figures else None
     extra = dict(preset=config.preset)
     first = [e for e in plan.entries if e.table != "ablation"]
@@ -193,6 +192,66 @@ def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> l
         _row_figures(figures, rows, config)
     bar.close()
     return rows
+
+
+def _collection(config: ReproduceConfig, plan):
+    """The config's collection with every channel the plan's networks read (the ablation's sets of one's own computed
+    once, cached beside it), and those added channels' inner products.
+    """
+    coll = config.profile.load(config.preset, config.data_root, config.progress)
+    asked = {(c if isinstance(c, str) else c.name): c for e in plan.entries for s in e.runs for c in s.channels}
+    new = [get_inner_product(c) for name, c in asked.items() if name not in coll.channels]
+    return (coll.with_channels([*coll.channels, *new]) if new else coll), new
+
+
+def _train_side_by_side(config: ReproduceConfig, ws: Workspace, entries) -> None:
+    """Train the unfinished trainings of ``entries`` (:meth:`Workspace.trainings`) in ``config.jobs`` processes, each
+    with an equal share of the cores, into ``ws``'s runs folder; the plan then loads them as finished runs. joblib
+    hands each process its collection (its arrays memory-mapped, not copied); an interrupted run resumes from its
+    last epoch.
+    """
+    from tqdm.auto import tqdm
+
+    from ._extras import require
+    from ._parallel import usable_cores
+
+    joblib = require("joblib", "reproduce --jobs")
+    todo = [(spec, ws.data(key, draws)) for key, draws, spec in ws.trainings(entries).values()]
+    todo = [(spec, coll) for spec, coll in todo if not _finished(spec.run_dir(ws.runs_root, coll), spec.epochs)]
+    if not todo:
+        return
+    threads = max(1, usable_cores() // config.jobs)
+    task = joblib.delayed(_train_one)
+    parallel = joblib.Parallel(n_jobs=min(config.jobs, len(todo)), return_as="generator_unordered")
+    bar = tqdm(
+        total=len(todo), desc=f"training {config.jobs} side by side", unit="network", disable=config.progress is False
+    )
+    with bar:
+        for name in parallel(task(spec, coll, str(ws.runs_root), str(ws.device), threads) for spec, coll in todo):
+            bar.set_postfix_str(name)
+            bar.update(1)
+
+
+def _finished(run_dir: Path, epochs: int) -> bool:
+    """Whether ``run_dir``'s ``history.json`` holds ``epochs`` epochs (looked up without loading the run)."""
+    import json
+
+    try:
+        return len(json.loads((run_dir / "history.json").read_text())) >= epochs
+    except (OSError, ValueError):
+        return False
+
+
+def _train_one(spec, collection, runs_root: str, device: str, threads: int) -> str:
+    """One training of :func:`_train_side_by_side`, in its own process with ``threads`` threads; its folder's name."""
+    import torch
+
+    from ._parallel import exit_with_parent
+    from .experiments.runner import train_run
+
+    exit_with_parent()  # a killed reproduce leaves no training behind in its folder
+    torch.set_num_threads(threads)
+    return train_run(spec, collection, runs_root, device=device, progress=False).run_id
 
 
 def _context(config: ReproduceConfig, coll, device, plan) -> dict:
@@ -223,8 +282,8 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
     """
     if key == "discretisation":
         decoders = [o for o in done.values() if o.entry.other_meshes]
-        runs = [o.runs[0] for o in decoders]
-        fields = {o.entry.name: {"entry": o.entry.key, **o.entry.run_fields(), **_first_seed(o)} for o in decoders}
+        runs = [r for o in decoders for r in (o.runs if o.entry.replicated else o.runs[:1])]  # every seed decodes
+        fields = {o.entry.name: {"entry": o.entry.key, **o.entry.run_fields()} for o in decoders}
         settings = dict(fields=fields, shapes=ws.budget.discretisation_shapes)
         drawn = ["discretisation"]
     else:
@@ -246,7 +305,7 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
     if key == "discretisation":
         rows = discretisation_rows(
             ws.coll,
-            {o.entry.name: o.runs[0].net for o in decoders},
+            {o.entry.name: list(o.runs) if o.entry.replicated else o.runs[0].net for o in decoders},
             ws.budget,
             fields=fields,
             comp=ws.data("comp"),
@@ -264,13 +323,6 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
         rows = applications_rows(ws.coll, algebras, ws.budget, out=figures, progress=ws.progress)
     prov = record(runs, context, inputs)
     return [dict(r, provenance=prov) for r in rows]
-
-
-def _first_seed(outcome) -> dict:
-    """The run fields of a replicated entry's first seed, which the steps decode with (none for one run)."""
-    if not outcome.entry.replicated:
-        return {}
-    return dict(run=outcome.runs[0].spec.run_name, seeds=[outcome.runs[0].spec.seed])
 
 
 def _figures(figures: Path, ws: Workspace, done: dict, refine: bool) -> None:

@@ -4,6 +4,7 @@ import pytest
 
 pytest.importorskip("torch")  # the net extra: skipped by a core-only install
 
+import dataclasses
 import json
 
 import numpy as np
@@ -373,6 +374,17 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_
     assert f"- OperatorNet (Ext): {1e4 * get['5k', 'computed', 'OperatorNet (Ext)']:.3g}, {ratio:.1f}×" in md
     for name in ("discretisation", "generalisation"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
+    # a network of several seeds decodes with each: one row per encoding over them, each seed's mean as alone
+    from opnet.experiments.runner import train_run
+
+    spec = dataclasses.replace(plan["int+ext"].spec, seeds=(0, 1))
+    runs = [train_run(s, few, tmp_path / "runs", device="cpu") for s in spec.replicates()]
+    both = reproduce.discretisation_rows(few, {"two": runs}, budget, comp=comp, data_root=str(data))
+    alone = reproduce.discretisation_rows(few, {"one": runs[1].net}, budget, comp=comp, data_root=str(data))
+    assert [(r["resolution"], r["maps"]) for r in both] == encodings
+    for r, one in zip(both, alone):
+        assert r["seeds"] == [0, 1] and np.shape(r["d_R_shapes"]) == (2, 3) and r["d_R_low"] < r["d_R_high"]
+        assert r["d_R_seeds"][1] == pytest.approx(one["d_R"]) and r["runs"] == [s.run_name for s in spec.replicates()]
     with pytest.raises(ValueError, match="generated 1k humans|not made by a generator"):
         opnet.data.mapped_collection(tiny_collection("humans"), "2k")
     with pytest.raises(ValueError, match="shapes must be"):

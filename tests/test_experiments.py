@@ -122,6 +122,9 @@ def test_the_config_decides_the_parts_from_the_profile():
         config.ReproduceConfig(ablation_channels=("area,nowhere_pkg:MyIP",))
     with pytest.raises(ValueError, match="reproducible=False"):
         config.ReproduceConfig(collection="heads")
+    for jobs in (0, True, 1.5):
+        with pytest.raises(ValueError, match="jobs must be a count of processes"):
+            config.ReproduceConfig(jobs=jobs)
 
 
 def test_the_commands_options_are_the_configs_fields():
@@ -390,6 +393,33 @@ def test_reproduce_records_provenance_keeps_current_rows_and_measures_stale_ones
     assert set(evaluated) == {"OperatorNet (Ext)"}
     by = {(r["entry"], r["split"]): r["d_R"] for r in first}
     assert {(r["entry"], r["split"]): r["d_R"] for r in third} == by  # the same checkpoint measures the same
+
+
+@pytest.mark.slow
+def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules, tmp_path, monkeypatch):
+    """--jobs 2 trains every network in two other processes before the plan loads them; the rows are those of one
+    process, and the ablation's A+E+C at depth 1 is Table 1's Int+Ext training, not a second one."""
+    from opnet.experiments import runner
+
+    monkeypatch.setitem(plan.BUDGETS, "quick", dataclasses.replace(BUDGET, ablation_epochs=BUDGET.epochs))
+    options = dict(collection="capsules", figures=False, refine=False, device="cpu", progress=False)
+    one = reproduce.reproduce("quick", tmp_path / "one", **options)
+    real = runner.train_run
+
+    def load_only(spec, collection, root, **kw):  # in this process: every run is already finished
+        run_dir = spec.run_dir(root, collection)
+        assert len(json.loads((run_dir / "history.json").read_text())) == spec.epochs, run_dir.name
+        return real(spec, collection, root, **kw)
+
+    monkeypatch.setattr(runner, "train_run", load_only)
+    two = reproduce.reproduce("quick", tmp_path / "two", jobs=2, **options)
+    key = lambda r: (r["entry"], r["split"])  # noqa: E731
+    assert sorted(map(key, one)) == sorted(map(key, two))
+    by = {key(r): r["d_R"] for r in one}
+    assert all(r["d_R"] == pytest.approx(by[key(r)], rel=1e-4) for r in two)
+    runs = {r["entry"]: r["provenance"]["runs"] for r in two}
+    assert runs["ablation-A+E+C-d1"] == runs["int+ext"] and runs["int+ext"][0].startswith("table1-A+E+C-d1-")
+    assert not list((tmp_path / "two" / "runs").glob("ablation-A+E+C-d1-*"))
 
 
 def test_figures_carry_the_rows_intervals_as_error_bars():

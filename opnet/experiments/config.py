@@ -72,6 +72,12 @@ class ReproduceConfig:
         type=positive_int,
     )
     data_root: str | None = option(None, "where collections are cached")
+    jobs: int = option(
+        1,
+        "train this many networks side by side, each in its own process with an equal share of the cores (2 on 2 "
+        "cores: about 1.9 times the networks per hour); a network's round-off then differs from one trained alone",
+        type=positive_int,
+    )
     training_budget: str | None = option(
         None,
         "train with a named budget instead of the preset's: paper-code (the paper's published code: 450 epochs, "
@@ -128,6 +134,8 @@ class ReproduceConfig:
             raise ValueError(f"ablation_grid must be one of {ABLATION_GRIDS}, got {self.ablation_grid!r}.")
         if isinstance(self.seeds, bool) or not isinstance(self.seeds, int) or self.seeds < 1:
             raise ValueError(f"seeds must be a count of trainings >= 1, got {self.seeds!r}.")
+        if isinstance(self.jobs, bool) or not isinstance(self.jobs, int) or self.jobs < 1:
+            raise ValueError(f"jobs must be a count of processes >= 1, got {self.jobs!r}.")
 
     @property
     def profile(self):

@@ -272,6 +272,7 @@ class Workspace:
         self.extra_channels = tuple(extra_channels)  # names of channels added for the ablation's own sets
         self._data: dict = {}
         self._fingerprints: dict = {}  # id of a collection -> (the collection, kept alive; its fingerprint)
+        self._runs: dict = {}  # run digest -> the Run trained (or loaded) for it in this workspace
 
     def data(self, key: str, draws: dict | None = None):
         """The collection an entry trains or tests on (:data:`~opnet.experiments.plan.DATA`; ``draws``: the profile's
@@ -324,10 +325,34 @@ class Workspace:
         return self._fingerprints[key][1]
 
     def train(self, spec, collection):
-        """Train (or load, when finished) ``spec`` on ``collection`` in this workspace's runs folder."""
-        if self.bar is not None:
-            self.bar.set_postfix_str(spec.run_name)
-        return train_run(spec, collection, self.runs_root, device=self.device, progress=self.progress is True)
+        """Train (or load, when finished) ``spec`` on ``collection`` in this workspace's runs folder. Two specs with
+        one :func:`opnet.train.run_digest` train the same weights (the ablation's A+E+C at depth 1 is Table 1's
+        Int+Ext): the second gets the first's :class:`Run`, whose folder its rows' ``provenance`` then names.
+        """
+        from ..train import run_digest
+
+        digest = run_digest(collection, **spec.fit_options())
+        if digest not in self._runs:
+            if self.bar is not None:
+                self.bar.set_postfix_str(spec.run_name)
+            progress = self.progress is True
+            self._runs[digest] = train_run(spec, collection, self.runs_root, device=self.device, progress=progress)
+        return self._runs[digest]
+
+    def trainings(self, entries) -> dict:
+        """Every training ``entries`` declare, one per :func:`opnet.train.run_digest` (the first spec that declares
+        it): ``{digest: (data key, draws, spec)}``, building each collection they train on (:meth:`data`).
+        """
+        from ..train import run_digest
+
+        out: dict = {}
+        for entry in entries:
+            if entry.baseline is not None or entry.refines is not None:
+                continue
+            collection = self.data(entry.trained_on, entry.draws)
+            for spec in entry.spec.replicates() if entry.replicated else entry.runs:
+                out.setdefault(run_digest(collection, **spec.fit_options()), (entry.trained_on, entry.draws, spec))
+        return out
 
 
 def _untrained(device) -> dict:

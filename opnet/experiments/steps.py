@@ -14,6 +14,7 @@ from ..evaluate import evaluate, evenly_spaced, operatornet_method, test_set_ind
 from .baselines import REFINE
 from .figures import application_figures, discretisation_figure
 from .figures import refinement_curves as _curves
+from .stats import summarize_seeds
 
 __all__ = [
     "DISCRETISATIONS",
@@ -69,7 +70,9 @@ def discretisation_rows(
     :class:`~opnet.experiments.runner.Run`, whose spec's fields its rows then carry) decodes every encoding; d_R, d_V,
     d_E against the generator's 1k shapes. Rows also hold ``resolution``, ``maps`` and ``map_error`` (metres,
     mean over the shapes; 0 for the true map) and ``fields[name]`` (a network's run fields: ``run``, ``architecture``,
-    ``variant``, ``group``...). ``comp``: the collection through the 2k computed maps, whose maps are reused. With
+    ``variant``, ``group``...). A decoder given as a list (of networks or runs, one per training seed) gets one row per
+    encoding over its seeds (:func:`opnet.experiments.stats.summarize_seeds`: the mean, an interval over seeds and
+    shapes). ``comp``: the collection through the 2k computed maps, whose maps are reused. With
     ``out``, writes ``discretisation.png`` there (:func:`discretisation_figure` of three 5k shapes, by the networks
     named in ``shown``, default all).
     """
@@ -83,24 +86,44 @@ def discretisation_rows(
             encodings[res, maps] = comp.subset(idx)
         else:
             encodings[res, maps] = mapped_collection(coll, res, maps, indices=idx, root=data_root, progress=progress)
-    runs = {name: n for name, n in nets.items() if hasattr(n, "spec") and hasattr(n, "net")}
-    fields = {**{name: run.spec.fields() for name, run in runs.items()}, **(fields or {})}
-    nets = {name: runs[name].net if name in runs else net for name, net in nets.items()}
+    decoders = {name: list(n) if isinstance(n, (list, tuple)) else [n] for name, n in nets.items()}
     rows = []
     for (res, maps), c in encodings.items():
         error = float(np.mean(c.params["map_error"])) if "map_error" in c.params else 0.0
         where = dict(table="discretisation", resolution=res, maps=maps, map_error=error)
-        methods = [
-            operatornet_method(net, c, name, info={**fields.get(name, {}), **where}) for name, net in nets.items()
-        ]
-        rows += evaluate(c, methods, ("test",), extra=extra, per_shape=True)  # the claims pair them
+        for name, members in decoders.items():
+            info = {**_run_fields(members[0]), **(fields or {}).get(name, {}), **where}
+            each = [
+                evaluate(c, [operatornet_method(_network(m), c, name, info=info | _seed(m, members))], ("test",),
+                         extra=extra, per_shape=True)[0]
+                for m in members
+            ]  # fmt: skip
+            rows.append(summarize_seeds(each) if len(each) > 1 else each[0])  # the claims pair them
     if out is not None:
-        picked = {name: nets[name] for name in shown if name in nets} or nets
+        picked = {name: _network(members[0]) for name, members in decoders.items() if name in shown or not shown}
+        picked = picked or {name: _network(members[0]) for name, members in decoders.items()}
         plotter = discretisation_figure(encodings["5k", "computed"], picked)
         Path(out).mkdir(parents=True, exist_ok=True)
         plotter.screenshot(str(Path(out) / "discretisation.png"))
         plotter.close()
     return rows
+
+
+def _network(member):
+    """The network of a decoder given as a network or as its :class:`~opnet.experiments.runner.Run`."""
+    return member.net if hasattr(member, "spec") and hasattr(member, "net") else member
+
+
+def _run_fields(member) -> dict:
+    """A :class:`~opnet.experiments.runner.Run`'s spec fields (none for a bare network)."""
+    return member.spec.fields() if hasattr(member, "spec") and hasattr(member, "net") else {}
+
+
+def _seed(member, members) -> dict:
+    """The seed and run of one of several trainings of a decoder (its rows are then summarised over them)."""
+    if len(members) == 1 or not hasattr(member, "spec"):
+        return {}
+    return dict(seed=member.spec.seed, run=member.spec.run_name)
 
 
 def application_methods(coll, runs: dict, budget, *, refine: bool = True, device="cpu") -> list:
