@@ -31,6 +31,7 @@ The modules ``train``, ``evaluate`` (home of ``decode``), ``experiments`` (home 
 """
 
 from . import data, testing
+from ._files import FolderInUseError
 from .algebra import analogy, interpolate, log_difference, relative_difference
 from .fmaps import FunctionalMap, fmap_from_p2p, fmap_from_soft_map, identity_fmap
 from .gram import gram_matrix, recover_embedding
@@ -82,6 +83,7 @@ __all__ = [
     "register_inner_product",
     "channel_digest",
     "ChannelError",
+    "FolderInUseError",
     "KINDS",
     "CHANNEL_SETS",
     "shape_difference",

@@ -1,11 +1,24 @@
-"""Atomic file writes and the clean-up of temporary files left by killed processes (shared by data and training)."""
+"""Atomic file writes, the clean-up of temporary files left by killed processes, and one writer per folder (shared
+by data, training and the reproduction).
+"""
 
 from __future__ import annotations
 
 import os
+from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["atomic_write", "tmp_name", "remove_stale_tmp"]
+__all__ = ["atomic_write", "tmp_name", "remove_stale_tmp", "writer_lock", "FolderInUseError", "LOCK_NAME"]
+
+#: The file in a folder that :func:`writer_lock` locks; it holds the writer's PID and what it is (read only to say who
+#: holds it).
+LOCK_NAME = ".opnet-writer.lock"
+
+
+class FolderInUseError(RuntimeError):
+    """Another process is writing into the folder (a training into its run directory, a reproduction into its
+    output folder); the message names the folder and the holder's PID.
+    """
 
 
 def tmp_name(path: Path, suffix: str = "") -> Path:
@@ -44,3 +57,35 @@ def remove_stale_tmp(paths) -> None:
             tmp.unlink(missing_ok=True)
         except PermissionError:  # alive, someone else's
             pass
+
+
+@contextmanager
+def writer_lock(folder, what: str):
+    """Hold ``folder`` (created when missing) for this process's writing, ``what`` naming the writer in the message
+    another gets: an exclusive lock on ``folder / LOCK_NAME`` (``fcntl.flock``), which the OS releases when this
+    process ends, however it ends, so a killed writer leaves no stale lock. A second writer, in another process or in
+    this one, gets :class:`FolderInUseError` at once. Readers take no lock: every file is written atomically
+    (:func:`atomic_write`). Where ``fcntl`` is missing (Windows) no lock is taken.
+    """
+    try:
+        import fcntl
+    except ImportError:  # no advisory locks: one writer is the user's care there
+        yield
+        return
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    fd = os.open(folder / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            pid, _, holder = os.pread(fd, 256, 0).decode(errors="replace").strip().partition("\n")
+            raise FolderInUseError(
+                f"{folder} is being written by {holder or 'another writer'} (process {pid or 'unknown'}); wait for it "
+                f"to end or stop it, or give this {what} another folder."
+            ) from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n{what}\n".encode(), 0)
+        yield
+    finally:
+        os.close(fd)  # releases the lock

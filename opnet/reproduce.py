@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from ._files import writer_lock
 from .apps import ANALOGY_KINDS, PATH_KINDS
 from .experiments.baselines import FUNCCHAR, REFINE
 from .experiments.config import ReproduceConfig
@@ -127,20 +128,27 @@ def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> l
 
     ``config``: a :class:`~opnet.experiments.config.ReproduceConfig`, or a preset's name with the config's fields
     as keywords (``reproduce("quick", "out", ablation=False, collection="animals")``); ``out``: the output folder
-    (default :func:`default_out`), reused to resume.
+    (default :func:`default_out`), reused to resume; one call at a time per folder (another gets
+    :class:`opnet.FolderInUseError` naming the holder's PID).
     """
-    from tqdm.auto import tqdm
-
-    from .devices import resolve_device
-
     if isinstance(config, str):
         config = ReproduceConfig(preset=config, out=None if out is None else str(out), **options)
     elif options or out is not None:
         raise TypeError("give either a ReproduceConfig or a preset with keywords, not both.")
-    budget, profile, progress = config.training, config.profile, config.progress
     out = Path(config.out) if config.out is not None else default_out(config.preset, config.collection)
     if out.exists() and not out.is_dir():
         raise ValueError(f"out={out} is a file; give a folder.")
+    with writer_lock(out, "reproduction (opnet.reproduce)"):  # one call per folder: its rows are one call's
+        return _reproduce(config, out)
+
+
+def _reproduce(config: ReproduceConfig, out: Path) -> list[dict]:
+    """:func:`reproduce`'s work, its folder held."""
+    from tqdm.auto import tqdm
+
+    from .devices import resolve_device
+
+    budget, profile, progress = config.training, config.profile, config.progress
     (out / "runs").mkdir(parents=True, exist_ok=True)
     device, t_start = resolve_device(config.device), time.perf_counter()
     earlier = read_results(out) if (out / "results.json").is_file() else None  # kept where not measured again

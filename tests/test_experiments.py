@@ -422,6 +422,16 @@ def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules,
     assert not list((tmp_path / "two" / "runs").glob("ablation-A+E+C-d1-*"))
 
 
+def test_a_second_reproduction_into_one_folder_stops_at_once(tmp_path):
+    """One writer per --out: a call into a folder that another holds stops before it loads anything, naming the
+    holder; the folder is free again once the holder lets go."""
+    out = tmp_path / "out"
+    with opnet._files.writer_lock(out, "reproduction (opnet.reproduce)"):
+        with pytest.raises(opnet.FolderInUseError, match=r"out is being written by reproduction .*process \d+"):
+            reproduce.reproduce("quick", out)
+    assert not (out / "runs").exists()  # nothing was begun
+
+
 def test_figures_carry_the_rows_intervals_as_error_bars():
     pytest.importorskip("matplotlib")
     import matplotlib

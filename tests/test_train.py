@@ -41,7 +41,8 @@ def test_fit_lowers_the_loss_and_selects_on_val(coll, tmp_path):
     assert isinstance(net, opnet.OperatorNet) and not net.training
     assert [h["epoch"] for h in hist] == list(range(1, 31))
     assert hist[-1]["train_loss"] < 0.2 * hist[0]["train_loss"]
-    assert sorted(p.name for p in (tmp_path / "run").iterdir()) == sorted(train.RUN_FILES)
+    files = sorted(p.name for p in (tmp_path / "run").iterdir())
+    assert files == sorted([*train.RUN_FILES, ".opnet-writer.lock"])  # the lock: one writer per run directory
     best = min(hist, key=lambda h: h["val_d_R"])
     # the returned network is the best epoch's: its val d_R is the best one in the history
     val = coll.indices("val")
@@ -108,6 +109,36 @@ def test_a_run_killed_with_sigkill_resumes_to_the_uninterrupted_result(coll, tmp
     assert not list(run.glob(".*.tmp-*"))
     assert _same_history(hist_ref, hist)
     assert all(torch.equal(a, b) for a, b in zip(_weights(ref).values(), _weights(resumed).values()))
+
+
+def test_a_second_writer_of_a_run_directory_stops_at_once_and_a_killed_one_leaves_no_lock(coll, tmp_path):
+    """Two real processes: while one trains into a run directory, a second training there is refused with the folder
+    and the holder's PID (a reader is not); once the first is SIGKILLed, the run resumes."""
+    manifest = save_collection(coll, tmp_path / "data" / "tiny")
+    run = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-c", _KILLED_RUN, str(manifest), str(run), "100000"])
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and not (run / "best.pt").exists():
+            time.sleep(0.05)
+        with pytest.raises(
+            opnet.FolderInUseError,
+            match=rf"{run} is being written by training \(opnet.train.fit\) \(process {proc.pid}\)",
+        ):
+            train.fit(coll, epochs=3, run_dir=run, **FAST)
+        assert train.load_model(run, coll) is not None  # a reader takes no lock
+        assert proc.poll() is None  # the first writer goes on
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    epochs = len(train.read_history(run)) + 2  # the lock went with its holder: the run resumes, two epochs more
+    assert len(train.fit(coll, epochs=epochs, run_dir=run, **FAST)[1]) == epochs
+    with opnet._files.writer_lock(run, "test"):  # and within one process, a second writer is refused too
+        with pytest.raises(
+            opnet.FolderInUseError,
+            match=rf"by test \(process {os.getpid()}\); .* give this training \(opnet.train.fit\) another folder",
+        ):
+            train.fit(coll, epochs=1, run_dir=run, **FAST)
 
 
 def test_mismatched_runs_and_checkpoints_are_refused(coll, tmp_path, tiny_collection):

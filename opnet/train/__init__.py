@@ -19,6 +19,7 @@ summation order, and only rank 0 writes the run directory (``opnet.train.loop``)
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 
 import torch
@@ -158,6 +159,7 @@ def fit(
     ------
     TrainingError : the loss became NaN or infinite (the message names the epoch and the last good checkpoint).
     CheckpointError : ``run_dir`` holds a run of other data or settings, or an unreadable checkpoint.
+    opnet.FolderInUseError : another process is training into ``run_dir`` (its PID named).
     ValueError : a bad hyper-parameter (:class:`TrainConfig`'s checks), or a collection without ``train`` or
         ``val`` shapes or with NaN there.
     """
@@ -171,24 +173,27 @@ def fit(
     record = run_config(collection, channels, net, config, place.device, place.world)
 
     run = RunDir(run_dir, place.rank, place.world) if run_dir is not None else None
-    state = (
-        RunState()
-        if run is None
-        else run.open(record, collection, channels, resume=resume, net=net, optimizer=optimizer, device=place.device)
-    )
-    bar = tqdm(
-        total=config.epochs,
-        initial=min(state.start, config.epochs),
-        desc="train pointnet" if config.pointnet else f"train {'+'.join(c[:4] for c in channels)} d{config.depth}",
-        unit="epoch",
-        disable=(progress is False) or place.rank != 0,
-    )
-    try:
-        run_epochs(net, optimizer, data, state, config, place, run=run, bar=bar, loss=rigid_alignment_loss)
-    finally:
-        bar.close()
-    if run is not None:
-        run.load_best(net, state, place.device)
-    elif state.best_epoch > 0:
-        net.load_state_dict(state.best_weights)
+    with run.writer() if run is not None else contextlib.nullcontext():  # one writer per run directory
+        state = (
+            RunState()
+            if run is None
+            else run.open(
+                record, collection, channels, resume=resume, net=net, optimizer=optimizer, device=place.device
+            )
+        )
+        bar = tqdm(
+            total=config.epochs,
+            initial=min(state.start, config.epochs),
+            desc="train pointnet" if config.pointnet else f"train {'+'.join(c[:4] for c in channels)} d{config.depth}",
+            unit="epoch",
+            disable=(progress is False) or place.rank != 0,
+        )
+        try:
+            run_epochs(net, optimizer, data, state, config, place, run=run, bar=bar, loss=rigid_alignment_loss)
+        finally:
+            bar.close()
+        if run is not None:
+            run.load_best(net, state, place.device)
+        elif state.best_epoch > 0:
+            net.load_state_dict(state.best_weights)
     return net.eval(), state.history

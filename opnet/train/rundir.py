@@ -26,6 +26,7 @@ directory (:class:`RunDir`).
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import inspect
 import json
@@ -36,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .._files import atomic_write, remove_stale_tmp
+from .._files import atomic_write, remove_stale_tmp, writer_lock
 from ..devices import resolve_device
 from ..inner_products import channel_digest, get_inner_product, split_channels
 from ..model import OperatorNet, build_model
@@ -557,6 +558,14 @@ class RunDir:
         self.config: dict | None = None
         self.best_written = 0  # the epoch of the best.pt this process wrote or found (0: none)
         self.latest_epoch = 0  # the epoch of the latest.pt this process wrote or resumed (0: none)
+
+    def writer(self):
+        """A context in which this process is the run directory's one writer (a lock that the OS releases when the
+        process ends; rank 0 only, the one that writes): another training into it gets :class:`opnet.FolderInUseError`.
+        """
+        if self.rank != 0:
+            return contextlib.nullcontext()
+        return writer_lock(self.path, "training (opnet.train.fit)")
 
     def open(self, config: dict, collection, channels, *, resume: bool, net, optimizer, device) -> RunState:
         """Resume the run found here into ``net`` and ``optimizer``, or start it afresh.
