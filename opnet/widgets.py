@@ -42,11 +42,13 @@ def show(explorer) -> None:
         display(Image(data=buf.getvalue(), format="jpeg"))
 
 
-def render_png(meshes, faces, titles, scalars=None, *, clim=None, camera="xz", zoom=1.2, size=(220, 300)) -> bytes:
+def render_png(
+    meshes, faces, titles, scalars=None, *, clim=None, camera="xz", zoom=1.2, size=(220, 300), scalar_bar=None
+) -> bytes:
     """Shapes ``(vertices (n, 3), ...)`` side by side, rendered off screen: PNG bytes (one row, ``size`` per shape).
 
     ``scalars``: a per-vertex field or ``None`` per shape, painted on a shared range ``clim`` (default 0 to the
-    largest value).
+    largest value), with a colour bar titled ``scalar_bar`` (its unit) when given.
     """
     import PIL.Image
 
@@ -65,6 +67,7 @@ def render_png(meshes, faces, titles, scalars=None, *, clim=None, camera="xz", z
         camera=camera,
         zoom=zoom,
         window_size=(size[0] * len(meshes), size[1]),
+        scalar_bar=scalar_bar if fields else None,
     )
     img = plotter.screenshot(return_img=True)
     plotter.close()
@@ -80,6 +83,19 @@ def shape_labels(collection, indices) -> dict:
         f"{collection.subcollection[i]}" + (f", frame {frames[i]}" if frames is not None else "") + f" (#{i})": int(i)
         for i in indices
     }
+
+
+def _far_pair(vertices, allowed=None) -> tuple[int, int]:
+    """Positions ``(i, j)`` of the two shapes of ``vertices`` ``(N, n, 3)`` furthest apart (RMS over the vertices,
+    without alignment: the pair a picture shows as most different); ``allowed[i, j]`` false excludes a pair.
+    """
+    X = np.asarray(vertices, dtype=np.float64).reshape(len(vertices), -1)
+    sq = np.einsum("ij,ij->i", X, X)
+    dist = sq[:, None] + sq[None, :] - 2 * X @ X.T  # (N, N) squared distances, N shapes (a few hundred at most)
+    if allowed is not None:
+        dist = np.where(allowed, dist, -np.inf)
+    i, j = np.unravel_index(int(np.argmax(dist)), dist.shape)
+    return int(i), int(j)
 
 
 def _default_shapes(collection) -> dict:
@@ -109,8 +125,9 @@ def interpolation_explorer(
     values of ``t``; the slider moves along them.
 
     ``shapes``: dropdown label → collection index (default: the ``test`` and ``test_subjects`` shapes,
-    :func:`shape_labels`); ``start``, ``end``: initial labels (default: the first, and the first of another
-    sequence). All ``methods`` are selected at first.
+    :func:`shape_labels`); ``start``, ``end``: initial labels (default: the two shapes of different sequences that
+    differ most, so that the first picture shows a path that moves; given ``start``, the shape of another sequence
+    furthest from it). All ``methods`` are selected at first; the picture shows the two ends beside them.
     Returns an ``ipywidgets.VBox`` with attributes ``image`` (the current render, for :func:`show`) and
     ``titles`` (the captions of the shapes shown).
     """
@@ -120,13 +137,17 @@ def interpolation_explorer(
     labels = list(shapes)
     by_name = {m.name: m for m in methods}
     t = np.linspace(0, 1, steps)
-    start = start or labels[0]
-    if end is None:  # the first shape of another sequence (not a random pose), else the last one
-        sub, motion = collection.subcollection, collection.params.get("motion", np.full(len(collection), ""))
-        end = next(
-            (label for label, i in shapes.items() if sub[i] != sub[shapes[start]] and motion[i] != "random"),
-            labels[-1],
-        )
+    if start is None or end is None:  # the most different shapes of two sequences (no random poses)
+        idx = np.array([shapes[label] for label in labels])
+        sub, motion = collection.subcollection[idx], collection.params.get("motion", np.full(len(collection), ""))
+        allowed = (sub[:, None] != sub[None, :]) & (motion[idx] != "random")[:, None] & (motion[idx] != "random")
+        if start is not None:
+            allowed &= (np.array(labels) == start)[:, None]
+        if allowed.any():
+            i, j = _far_pair(collection.vertices[idx], allowed)
+            start, end = labels[i], labels[j]
+        else:
+            start, end = start or labels[0], labels[-1]
     first = w.Dropdown(options=labels, value=start, description="start")
     last = w.Dropdown(options=labels, value=end, description="end")
     chosen = w.SelectMultiple(options=list(by_name), value=tuple(by_name), description="methods", rows=len(by_name))
@@ -142,10 +163,9 @@ def interpolation_explorer(
 
     def update(_=None):
         j = int(round(slider.value * (steps - 1)))
-        if chosen.value:
-            shown = {f"{name}, t = {t[j]:.1f}": path(name)[j] for name in chosen.value}
-        else:  # no method selected: the two ends
-            shown = {"start": collection.vertices[shapes[first.value]], "end": collection.vertices[shapes[last.value]]}
+        shown = {f"{name}, t = {t[j]:.1f}": path(name)[j] for name in chosen.value}
+        ends = (collection.vertices[shapes[first.value]], collection.vertices[shapes[last.value]])
+        shown = {"start": ends[0], **shown, "end": ends[1]}  # the ends beside the methods' shapes at t
         box.titles = list(shown)
         image.value = render_png(list(shown.values()), collection.faces, box.titles, camera=camera)
 
@@ -164,8 +184,9 @@ def analogy_explorer(collection, methods, *, subjects=None, poses=None, camera="
     poses: the ``test`` shapes' poses, by default); a method selector chooses the methods whose ``X`` is shown.
     Where the analogy has a generated answer — the subject of ``X`` is ``C``'s when ``A`` and ``B`` share theirs,
     ``B``'s when ``A`` and ``C`` do, and likewise for the pose — the true ``X`` is shown and every method's ``X`` is
-    coloured by its distance to it. ``initial``: ``(sA, pA, sB, pB, sC, pC)`` dropdown indices (default: a pose
-    transfer). Returns an ``ipywidgets.VBox`` with attributes ``image`` (for :func:`show`), ``titles`` (the
+    coloured by its distance to it (mm, with a colour bar). ``initial``: ``(sA, pA, sB, pB, sC, pC)`` dropdown
+    indices (default: a pose transfer between the two poses that differ most, so that the first picture shows a pose
+    that moves). Returns an ``ipywidgets.VBox`` with attributes ``image`` (for :func:`show`), ``titles`` (the
     captions shown) and ``controls`` (the six dropdowns: A subject, A pose, B subject, ...).
     """
     w = require("ipywidgets", "opnet.widgets")
@@ -174,6 +195,7 @@ def analogy_explorer(collection, methods, *, subjects=None, poses=None, camera="
     from .data.generators import generate_shapes
 
     subj, pose_idx, _ = ground_truth_pool(collection)
+    own_poses = poses is not None
     subjects = subjects if subjects is not None else {f"unseen subject {i}": p for i, p in enumerate(subj)}
     poses = (
         poses
@@ -182,7 +204,9 @@ def analogy_explorer(collection, methods, *, subjects=None, poses=None, camera="
     )
     s_names, p_names = list(subjects), list(poses)
     by_name = {m.name: m for m in methods}
-    initial = initial or (0, 0, 0, len(p_names) - 1, min(1, len(s_names) - 1), 0)
+    if initial is None:  # A and C in one pose, B in the most different one: a pose transfer that shows
+        p, q = (0, len(p_names) - 1) if own_poses or len(p_names) < 2 else _far_pair(collection.vertices[pose_idx])
+        initial = (0, p, 0, q, min(1, len(s_names) - 1), p)
     boxes = []
     for role, k in zip("ABC", range(3)):
         boxes += [
@@ -206,8 +230,14 @@ def analogy_explorer(collection, methods, *, subjects=None, poses=None, camera="
         names, meshes, scalars = _with_errors({m: by_name[m].analogy(*V) for m in chosen.value}, truth)
         known = [("A", V[0]), ("B", V[1]), ("C", V[2])] + ([("true X", truth)] if truth is not None else [])
         box.titles = [n for n, _ in known] + names
+        mm = [None if e is None else 1000 * e for e in scalars]
         image.value = render_png(
-            [v for _, v in known] + meshes, collection.faces, box.titles, [None] * len(known) + scalars, camera=camera
+            [v for _, v in known] + meshes,
+            collection.faces,
+            box.titles,
+            [None] * len(known) + mm,
+            camera=camera,
+            scalar_bar="distance to true X (mm)",
         )
 
     box = w.VBox([w.HBox(boxes[0:2]), w.HBox(boxes[2:4]), w.HBox(boxes[4:6]), chosen, image])

@@ -329,13 +329,24 @@ def test_widgets_follow_their_controls(humans):
     alg = _vertex_algebra(humans)
     box = widgets.interpolation_explorer(humans, [alg], steps=3)
     first = box.image.value
-    assert box.titles == ["vertices, t = 0.5"]
+    assert box.titles == ["start", "vertices, t = 0.5", "end"]  # the ends beside the methods
+    start, end = (box.children[0].children[k].value for k in (0, 1))
+    shapes = widgets.shape_labels(humans, np.concatenate([humans.indices("test"), humans.indices("test_subjects")]))
+    V = {label: humans.vertices[i].astype(np.float64) for label, i in shapes.items()}
+    sequence = {label: humans.subcollection[i] for label, i in shapes.items()}
+    gap = {(a, b): np.sum((V[a] - V[b]) ** 2) for a in V for b in V if sequence[a] != sequence[b]}
+    assert gap[start, end] == pytest.approx(max(gap.values()))  # the default: two sequences' most different shapes
     box.children[1].children[1].value = 1.0  # the slider
-    assert box.titles == ["vertices, t = 1.0"] and box.image.value != first
+    assert box.titles == ["start", "vertices, t = 1.0", "end"] and box.image.value != first
     box.children[1].children[0].value = ()  # no method: the two ends
     assert box.titles == ["start", "end"]
     box = widgets.analogy_explorer(humans, [alg])
     assert box.titles[:4] == ["A", "B", "C", "true X"]  # a pose transfer: its answer is known
+    a_pose, b_pose = box.controls[1].value, box.controls[3].value
+    _, pose_idx, _ = apps.ground_truth_pool(humans)
+    V = {label: humans.vertices[i].astype(np.float64) for label, i in widgets.shape_labels(humans, pose_idx).items()}
+    gap = {(a, b): np.sum((V[a] - V[b]) ** 2) for a in V for b in V}
+    assert gap[a_pose, b_pose] == pytest.approx(max(gap.values()))  # B in the pose most different from A's
     a_subject, b_subject, c_subject = box.controls[0], box.controls[2], box.controls[4]
     b_subject.value, c_subject.value = c_subject.value, a_subject.value  # A, C one subject; B another: still known
     assert "true X" in box.titles
