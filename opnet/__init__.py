@@ -31,7 +31,7 @@ The modules ``train``, ``evaluate`` (home of ``decode``), ``experiments`` (home 
 """
 
 from . import data, testing
-from ._files import FolderInUseError
+from ._files import DiskFullError, FolderInUseError
 from .algebra import analogy, interpolate, log_difference, relative_difference
 from .fmaps import FunctionalMap, fmap_from_p2p, fmap_from_soft_map, identity_fmap
 from .gram import gram_matrix, recover_embedding
@@ -84,6 +84,7 @@ __all__ = [
     "channel_digest",
     "ChannelError",
     "FolderInUseError",
+    "DiskFullError",
     "KINDS",
     "CHANNEL_SETS",
     "shape_difference",

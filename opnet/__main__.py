@@ -165,6 +165,7 @@ def _channels(coll, text: str) -> list:
 
 def main(argv=None) -> int:
     """Run a command; opnet's own errors are printed as one line (exit status 1), not as a traceback."""
+    from ._files import DiskFullError, FolderInUseError
     from .data import CollectionError
     from .mesh import MeshError
     from .train import CheckpointError, TrainingError
@@ -172,8 +173,11 @@ def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     try:
         return _run(args)
-    except (CheckpointError, TrainingError, CollectionError, MeshError, ValueError) as exc:
+    except (CheckpointError, TrainingError, CollectionError, MeshError, ValueError, FolderInUseError) as exc:
         print(f"python -m opnet {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except DiskFullError as exc:  # its message without the "[Errno 28]" prefix
+        print(f"python -m opnet {args.command}: error: {exc.strerror}", file=sys.stderr)
         return 1
 
 

@@ -4,11 +4,21 @@ by data, training and the reproduction).
 
 from __future__ import annotations
 
+import errno
 import os
+import shutil
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["atomic_write", "tmp_name", "remove_stale_tmp", "writer_lock", "FolderInUseError", "LOCK_NAME"]
+__all__ = [
+    "atomic_write",
+    "tmp_name",
+    "remove_stale_tmp",
+    "writer_lock",
+    "FolderInUseError",
+    "DiskFullError",
+    "LOCK_NAME",
+]
 
 #: The file in a folder that :func:`writer_lock` locks; it holds the writer's PID and what it is (read only to say who
 #: holds it).
@@ -18,6 +28,12 @@ LOCK_NAME = ".opnet-writer.lock"
 class FolderInUseError(RuntimeError):
     """Another process is writing into the folder (a training into its run directory, a reproduction into its
     output folder); the message names the folder and the holder's PID.
+    """
+
+
+class DiskFullError(OSError):
+    """The device has no space left for a file opnet writes (``errno.ENOSPC``); the message names the file, its
+    folder, the free space and about how much the file needs. The file's previous version is intact.
     """
 
 
@@ -43,8 +59,54 @@ def atomic_write(path, write) -> None:
             os.fsync(fd)
         finally:
             os.close(fd)
+    except (OSError, RuntimeError) as exc:
+        written = tmp.stat().st_size if tmp.exists() else 0
+        tmp.unlink(missing_ok=True)
+        if _no_space(exc, path.parent):
+            raise _disk_full(path, written) from exc
+        raise
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def _no_space(exc: BaseException, folder: Path) -> bool:
+    """Whether ``exc`` comes from a full device: an ``ENOSPC`` (or quota) ``OSError`` in its chain, or an error of a
+    writer that reports none (torch's serializer: ``unexpected pos``) while the folder's device has under 1 MiB free.
+    """
+    seen = exc
+    while seen is not None:
+        if isinstance(seen, OSError) and seen.errno in (errno.ENOSPC, errno.EDQUOT):
+            return True
+        seen = seen.__cause__ or seen.__context__
+    try:
+        return isinstance(exc, RuntimeError) and shutil.disk_usage(folder).free < 1 << 20
+    except OSError:
+        return False
+
+
+def _disk_full(path: Path, written: int) -> DiskFullError:
+    """The error of a write of ``path`` that found the device full after ``written`` bytes."""
+    free = shutil.disk_usage(path.parent).free
+    previous = path.stat().st_size if path.exists() else 0
+    needed = max(previous, written)
+    size = f"about {_size(needed)} (its previous version's size)" if previous >= written else f"over {_size(needed)}"
+    kept = f"the previous {path.name} is intact" if previous else f"there was no earlier {path.name}"
+    return DiskFullError(
+        errno.ENOSPC,
+        f"no space left on the device for {path.name} in {path.parent}: {_size(free)} free, and it needs {size}; "
+        f"{kept}. Free some space there (or give another folder) and run again: a run resumes from its last "
+        "checkpoint.",
+    )
+
+
+def _size(n: float) -> str:
+    """Bytes in a unit a person reads: ``"3.2 MB"``."""
+    if n < 1000:
+        return f"{n:.0f} B"
+    for unit in ("kB", "MB", "GB"):
+        n /= 1000
+        if n < 1000 or unit == "GB":
+            return f"{n:.1f} {unit}"
 
 
 def remove_stale_tmp(paths) -> None:

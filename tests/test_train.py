@@ -4,8 +4,10 @@ import pytest
 
 pytest.importorskip("torch")  # the net extra: skipped by a core-only install
 
+import errno
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -139,6 +141,46 @@ def test_a_second_writer_of_a_run_directory_stops_at_once_and_a_killed_one_leave
             match=rf"by test \(process {os.getpid()}\); .* give this training \(opnet.train.fit\) another folder",
         ):
             train.fit(coll, epochs=1, run_dir=run, **FAST)
+
+
+def test_a_full_disk_is_one_clear_error_and_the_run_resumes_from_its_intact_checkpoint(coll, tmp_path, monkeypatch):
+    """torch's serializer on a full device fails with "unexpected pos"; opnet says the device is full, names the file,
+    the folder and the space, keeps the previous checkpoint, and the run resumes to the uninterrupted result."""
+    from opnet import _files
+
+    run = tmp_path / "run"
+    train.fit(coll, epochs=2, run_dir=run, **FAST)
+    before = (run / "latest.pt").read_bytes()
+    real_save = torch.save
+
+    def full(obj, f, *args, **kwargs):  # what torch does when the device fills mid-write
+        f.write(b"PK\x03\x04partial")
+        raise RuntimeError("[enforce fail at inline_container.cc:672] . unexpected pos 3328 vs 3248")
+
+    with monkeypatch.context() as m:
+        m.setattr(torch, "save", full)
+        usage = shutil.disk_usage(tmp_path)._replace(free=1200)
+        m.setattr(_files.shutil, "disk_usage", lambda path: usage)
+        with pytest.raises(
+            opnet.DiskFullError, match=rf"no space left on the device for \w+\.pt in {run}: 1\.2 kB free"
+        ):
+            train.fit(coll, epochs=4, run_dir=run, **FAST)
+    assert torch.save is real_save and (run / "latest.pt").read_bytes() == before  # the last checkpoint is intact
+    assert not list(run.glob(".*.tmp-*"))  # and the partial file is gone
+    _, resumed = train.fit(coll, epochs=4, run_dir=run, **FAST)
+    _, straight = train.fit(coll, epochs=4, run_dir=tmp_path / "straight", **FAST)
+    assert _same_history(resumed, straight)
+
+    target = tmp_path / "results.json"  # an ENOSPC from any writer, e.g. json's: the same error
+    target.write_text("{}")
+
+    def enospc(f):
+        f.write(b"{")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    with pytest.raises(opnet.DiskFullError, match="for results.json in .*the previous results.json is intact"):
+        _files.atomic_write(target, enospc)
+    assert target.read_text() == "{}"
 
 
 def test_mismatched_runs_and_checkpoints_are_refused(coll, tmp_path, tiny_collection):
