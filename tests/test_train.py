@@ -183,6 +183,23 @@ def test_a_full_disk_is_one_clear_error_and_the_run_resumes_from_its_intact_chec
     assert target.read_text() == "{}"
 
 
+def test_a_corrupt_latest_checkpoint_costs_one_checkpoint_not_the_run(coll, tmp_path):
+    """latest.pt unreadable (a disk fault): the run resumes from previous.pt, the checkpoint before it, says so, and
+    ends as an uninterrupted run; with neither readable it is refused."""
+    run = tmp_path / "run"
+    train.fit(coll, epochs=3, run_dir=run, **FAST)
+    assert rundir.read_checkpoint(run / "previous.pt")["epoch"] == 2  # kept when epoch 3's was written
+    (run / "latest.pt").write_bytes(b"PK\x03\x04 a disk fault")
+    with pytest.warns(UserWarning, match=r"latest.pt cannot be read .*resumes from previous.pt.*\(epoch 2\)"):
+        _, resumed = train.fit(coll, epochs=5, run_dir=run, **FAST)
+    _, straight = train.fit(coll, epochs=5, run_dir=tmp_path / "straight", **FAST)
+    assert _same_history(resumed, straight)
+    for name in ("latest.pt", "previous.pt"):
+        (run / name).write_bytes(b"garbage")
+    with pytest.raises(train.CheckpointError, match="latest.pt is not a readable opnet checkpoint"):
+        train.fit(coll, epochs=6, run_dir=run, **FAST)
+
+
 def test_mismatched_runs_and_checkpoints_are_refused(coll, tmp_path, tiny_collection):
     train.fit(coll, epochs=1, run_dir=tmp_path, **FAST)
     with pytest.raises(

@@ -1,6 +1,6 @@
 """Run directories and checkpoints: what :func:`opnet.train.fit` writes, how a run resumes, and loading its network.
 
-A run directory holds four files, each written atomically (temporary file + ``os.replace``):
+A run directory holds five files, each written atomically (temporary file + ``os.replace``):
 
 ``config.json``
     what was trained on and how: the collection (name, preset, resolution, seed, generator version and a
@@ -12,6 +12,9 @@ A run directory holds four files, each written atomically (temporary file + ``os
     (even by SIGKILL) resumes from it, replaying the epochs after it, and a resumed CPU run ends with the same
     weights and history as an uninterrupted one (each epoch's shuffling is seeded by ``(seed, epoch)``, and
     nothing else is random).
+``previous.pt``
+    the ``latest.pt`` before it, kept when a new one is written: a ``latest.pt`` that cannot be read (a disk
+    fault) costs one checkpoint interval, not the run, since the run resumes from it (with a warning that says so).
 ``best.pt``
     the weights with the lowest validation ``d_R`` up to ``latest.pt``'s epoch, written with it (model
     selection on ``val`` only; ``test`` and ``test_subjects`` are never read here).
@@ -31,6 +34,9 @@ import hashlib
 import inspect
 import json
 import math
+import os
+import shutil
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -65,7 +71,7 @@ CHECKPOINT_VERSION = 1
 # Bump when a change to the training code changes what a run produces: runs of other versions are not resumed.
 TRAINING_VERSION = 1
 #: The files of a run directory (this module's docstring says what each holds).
-RUN_FILES = ("config.json", "latest.pt", "best.pt", "history.json")
+RUN_FILES = ("config.json", "latest.pt", "previous.pt", "best.pt", "history.json")
 
 # 2: the fingerprint covers the operators of the run's own channels, and the data config records their identities
 # (1: all of the collection's operators, which were opnet.KINDS).
@@ -305,6 +311,43 @@ def _save_torch(obj, path: Path) -> None:
 
 def _save_json(obj, path: Path) -> None:
     atomic_write(path, lambda f: f.write(json.dumps(obj, indent=1).encode()))
+
+
+def _keep_previous(latest: Path, previous: Path) -> None:
+    """Keep ``latest`` (if any) as ``previous`` before a new one replaces it: a hard link, renamed into place (a
+    copy where the file system has no links), so that ``previous`` is always a whole file.
+    """
+    if not latest.exists():
+        return
+    tmp = previous.with_name(f".{previous.name}.tmp-{os.getpid()}")
+    tmp.unlink(missing_ok=True)
+    try:
+        os.link(latest, tmp)
+    except OSError:
+        shutil.copyfile(latest, tmp)
+    os.replace(tmp, previous)
+
+
+def _read_latest(run_dir: Path, device) -> dict:
+    """The checkpoint a run resumes from: ``latest.pt``, or, when it cannot be read, ``previous.pt`` (the one
+    before it) with a warning naming both; :class:`CheckpointError` when neither can be read.
+    """
+    latest, previous = run_dir / "latest.pt", run_dir / "previous.pt"
+    try:
+        return read_checkpoint(latest, map_location=device)
+    except CheckpointError as exc:
+        if not previous.is_file():
+            raise
+        try:
+            ckpt = read_checkpoint(previous, map_location=device)
+        except CheckpointError:
+            raise exc from None
+        warnings.warn(
+            f"{latest} cannot be read ({exc}); the run resumes from previous.pt, the checkpoint before it (epoch "
+            f"{ckpt['epoch']}), and trains the epochs after it again.",
+            stacklevel=4,
+        )
+        return ckpt
 
 
 def read_checkpoint(path, map_location="cpu") -> dict:
@@ -604,7 +647,7 @@ class RunDir:
             remove_stale_tmp(run_dir.glob(".*.tmp-*"))  # left by a killed run
         latest = run_dir / "latest.pt"
         if latest.exists() and resume:
-            ckpt = read_checkpoint(latest, map_location=device)
+            ckpt = _read_latest(run_dir, device)
             version = ckpt["config"].get("data", {}).get("fingerprint_version", 1)
             if version != FINGERPRINT_VERSION:  # a run begun before channels were data goes on in its own format
                 config["data"] = _data_config(collection, channels, version)
@@ -661,6 +704,7 @@ class RunDir:
             _save_torch(best, run_dir / "best.pt")
             self.best_written = state.best_epoch
         _save_json(state.history, run_dir / "history.json")
+        _keep_previous(run_dir / "latest.pt", run_dir / "previous.pt")
         _save_torch(
             dict(
                 header,
