@@ -31,8 +31,8 @@ The modules ``train``, ``evaluate`` (home of ``decode``), ``experiments`` (home 
 """
 
 from . import data, testing
-from ._files import DiskFullError, FolderInUseError
 from .algebra import analogy, interpolate, log_difference, relative_difference
+from .errors import DiskFullError, FolderInUseError
 from .fmaps import FunctionalMap, fmap_from_p2p, fmap_from_soft_map, identity_fmap
 from .gram import gram_matrix, recover_embedding
 from .inner_products import (

@@ -165,8 +165,8 @@ def _channels(coll, text: str) -> list:
 
 def main(argv=None) -> int:
     """Run a command; opnet's own errors are printed as one line (exit status 1), not as a traceback."""
-    from ._files import DiskFullError, FolderInUseError
     from .data import CollectionError
+    from .errors import DiskFullError, FolderInUseError
     from .mesh import MeshError
     from .train import CheckpointError, TrainingError
 

@@ -10,31 +10,19 @@ import shutil
 from contextlib import contextmanager
 from pathlib import Path
 
+from .errors import DiskFullError, FolderInUseError
+
 __all__ = [
     "atomic_write",
     "tmp_name",
     "remove_stale_tmp",
     "writer_lock",
-    "FolderInUseError",
-    "DiskFullError",
     "LOCK_NAME",
 ]
 
 #: The file in a folder that :func:`writer_lock` locks; it holds the writer's PID and what it is (read only to say who
 #: holds it).
 LOCK_NAME = ".opnet-writer.lock"
-
-
-class FolderInUseError(RuntimeError):
-    """Another process is writing into the folder (a training into its run directory, a reproduction into its
-    output folder); the message names the folder and the holder's PID.
-    """
-
-
-class DiskFullError(OSError):
-    """The device has no space left for a file opnet writes (``errno.ENOSPC``); the message names the file, its
-    folder, the free space and about how much the file needs. The file's previous version is intact.
-    """
 
 
 def tmp_name(path: Path, suffix: str = "") -> Path:

@@ -34,8 +34,9 @@ _IMPORTERS = ("require", "import_module")  # opnet._extras.require, importlib.im
 #: below its own. The tiers and their order are the layout's; inside a tier, the layers order its modules among
 #: themselves.
 TIERS = {
-    # private helpers: argument checks, atomic files, optional imports, memos, threads, deprecated names, CLI options
-    "helpers": [{"_checks", "_files", "_extras", "_memo", "_parallel", "options"}, {"_deprecation"}],
+    # the errors about its files; private helpers: argument checks, atomic files, optional imports, memos,
+    # threads, deprecated names, CLI options
+    "helpers": [{"errors"}, {"_checks", "_files", "_extras", "_memo", "_parallel", "options"}, {"_deprecation"}],
     # geometry in numpy/scipy, float64, no torch
     "geometry": [{"mesh"}, {"_backend", "algebra"}, {"spectral"}, {"fmaps", "gram", "metrics"}],
     # channels: inner products and the channel vocabulary, shape differences, maps and encode, the checkers
