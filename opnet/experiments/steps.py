@@ -100,8 +100,8 @@ def discretisation_rows(
             ]  # fmt: skip
             rows.append(summarize_seeds(each) if len(each) > 1 else each[0])  # the claims pair them
     if out is not None:
-        picked = {name: _network(members[0]) for name, members in decoders.items() if name in shown or not shown}
-        picked = picked or {name: _network(members[0]) for name, members in decoders.items()}
+        names = [name for name in shown if name in decoders] or list(decoders)
+        picked = {name: _network(decoders[name][0]) for name in names}  # a replicated one: its first seed
         plotter = discretisation_figure(encodings["5k", "computed"], picked)
         Path(out).mkdir(parents=True, exist_ok=True)
         plotter.screenshot(str(Path(out) / "discretisation.png"))
@@ -109,19 +109,24 @@ def discretisation_rows(
     return rows
 
 
+def _is_run(member) -> bool:
+    """Whether a decoder is given as its :class:`~opnet.experiments.runner.Run` (else as a bare network)."""
+    return hasattr(member, "spec") and hasattr(member, "net")
+
+
 def _network(member):
-    """The network of a decoder given as a network or as its :class:`~opnet.experiments.runner.Run`."""
-    return member.net if hasattr(member, "spec") and hasattr(member, "net") else member
+    """The network of a decoder given as a network or as its run."""
+    return member.net if _is_run(member) else member
 
 
 def _run_fields(member) -> dict:
-    """A :class:`~opnet.experiments.runner.Run`'s spec fields (none for a bare network)."""
-    return member.spec.fields() if hasattr(member, "spec") and hasattr(member, "net") else {}
+    """A run's spec fields (none for a bare network)."""
+    return member.spec.fields() if _is_run(member) else {}
 
 
 def _seed(member, members) -> dict:
     """The seed and run of one of several trainings of a decoder (its rows are then summarised over them)."""
-    if len(members) == 1 or not hasattr(member, "spec"):
+    if len(members) == 1 or not _is_run(member):
         return {}
     return dict(seed=member.spec.seed, run=member.spec.run_name)
 
