@@ -188,7 +188,8 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, profile_loads, 
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     # a second call trains nothing more: every run is finished
     mtimes = {p: p.stat().st_mtime for p in (tmp_path / "runs").rglob("latest.pt")}
-    assert len(mtimes) == 32 + seeds
+    named = {run for r in saved for run in (r.get("provenance") or {}).get("runs", [])}
+    assert {p.parent.name for p in mtimes} == named and len(named) <= 32 + seeds  # one folder per distinct training
     reproduce.reproduce(
         "quick", tmp_path, budget=budget, device="cpu", progress=False, figures=False, applications=False, maps=False
     )

@@ -420,6 +420,8 @@ def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules,
     runs = {r["entry"]: r["provenance"]["runs"] for r in two}
     assert runs["ablation-A+E+C-d1"] == runs["int+ext"] and runs["int+ext"][0].startswith("table1-A+E+C-d1-")
     assert not list((tmp_path / "two" / "runs").glob("ablation-A+E+C-d1-*"))
+    name = {e.key: e.name for e in reproduce.plan_for(reproduce.ReproduceConfig(**options)).entries}
+    assert all(r["method"] == name[r["entry"]] for r in one + two)  # one training, each entry's rows its own name
 
 
 def test_a_second_reproduction_into_one_folder_stops_at_once(tmp_path):

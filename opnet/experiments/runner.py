@@ -327,7 +327,8 @@ class Workspace:
     def train(self, spec, collection):
         """Train (or load, when finished) ``spec`` on ``collection`` in this workspace's runs folder. Two specs with
         one :func:`opnet.train.run_digest` train the same weights (the ablation's A+E+C at depth 1 is Table 1's
-        Int+Ext): the second gets the first's :class:`Run`, whose folder its rows' ``provenance`` then names.
+        Int+Ext): the second gets the first's :class:`Run` (its network and folder, which its rows' ``provenance``
+        then names) under its own spec, so that its rows carry its own name.
         """
         from ..train import run_digest
 
@@ -337,7 +338,7 @@ class Workspace:
                 self.bar.set_postfix_str(spec.run_name)
             progress = self.progress is True
             self._runs[digest] = train_run(spec, collection, self.runs_root, device=self.device, progress=progress)
-        return self._runs[digest]
+        return replace(self._runs[digest], spec=spec)
 
     def trainings(self, entries) -> dict:
         """Every training ``entries`` declare, one per :func:`opnet.train.run_digest` (the first spec that declares
