@@ -12,7 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["usable_cores", "thread_map", "exit_with_parent"]
+__all__ = ["usable_cores", "thread_map", "exit_with_parent", "cluster_backend", "chunk_map"]
 
 # the one-thread BLAS while any thread_map runs, and the controller that found the BLAS libraries
 _STATE = {"limiter": None, "active": 0, "controller": None, "modules": -1}
@@ -95,3 +95,36 @@ def exit_with_parent(interval: float = 2.0) -> None:
         os._exit(1)
 
     threading.Thread(target=watch, name="opnet-exit-with-parent", daemon=True).start()
+
+
+def cluster_backend():
+    """The joblib backend the caller chose with ``joblib.parallel_config`` when it runs tasks beyond this machine's
+    processes and threads (Dask's ``"dask"``, Ray's ...), else ``None`` (joblib's own loky, threading,
+    multiprocessing or sequential backends, or joblib not installed).
+    """
+    try:
+        from joblib import parallel
+    except ImportError:
+        return None
+    backend, _ = parallel.get_active_backend()
+    local = (
+        parallel.LokyBackend,
+        parallel.ThreadingBackend,
+        parallel.MultiprocessingBackend,
+        parallel.SequentialBackend,
+    )
+    return None if isinstance(backend, local) else backend
+
+
+def chunk_map(fn, chunks):
+    """``fn(chunk)`` for each of ``chunks``, yielded in order: as tasks of the cluster's joblib backend when one is
+    active (:func:`cluster_backend`: one task per chunk, spread over all of its workers), else one after the other
+    in this process (``fn`` may use this machine's cores itself, as the operators' fast path does).
+    """
+    if cluster_backend() is None:
+        yield from map(fn, chunks)
+        return
+    import joblib
+
+    with joblib.Parallel(n_jobs=-1, return_as="generator") as parallel:
+        yield from parallel(joblib.delayed(fn)(c) for c in chunks)

@@ -1,5 +1,7 @@
 """Training: fit, checkpoints, exact resume (also after SIGKILL), mismatch errors, NaN stop, CLI, DDP."""
 
+import contextlib
+
 import pytest
 
 pytest.importorskip("torch")  # the net extra: skipped by a core-only install
@@ -530,3 +532,34 @@ def test_one_spec_trains_the_same_checkpoint_bit_for_bit_and_its_digest_names_it
     assert train.run_digest(coll, **spec.fit_options(), device="cpu", checkpoint_every=0) == a.name.rsplit("-", 1)[1]
     moved = coll.subset(np.arange(len(coll.vertices)))  # the same shapes: the same data
     assert train.run_digest(moved, **spec.fit_options()) == train.run_digest(coll, **spec.fit_options())
+
+
+def test_training_flushes_subnormals_and_steps_in_one_thread():
+    """Adam's second moments of weights whose gradients nearly vanish fall below float32's smallest normal number,
+    where the CPU's slow path made each step of a default run 3-6 times as long: fit's optimiser never holds one,
+    whatever the thread count, and the thread count is restored after each step."""
+    from opnet.train import loop
+
+    tiny = torch.finfo(torch.float32).tiny
+    cpu = torch.device("cpu")
+
+    def second_moments(flushed: bool) -> torch.Tensor:
+        weight = torch.nn.Parameter(torch.ones(1000))
+        optimizer = loop.adam([weight], 1e-3)
+        with loop.subnormals_flushed(cpu) if flushed else contextlib.nullcontext():
+            for _ in range(3):
+                weight.grad = torch.full((1000,), 1e-20)  # its square, 1e-40, is subnormal
+                loop._step(optimizer, cpu)
+        return optimizer.state[weight]["exp_avg_sq"]
+
+    def subnormal(t):
+        return int(((t != 0) & (t.abs() < tiny)).sum())
+
+    assert subnormal(second_moments(False)) == 1000  # torch's default keeps them (and is slow on them)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        assert subnormal(second_moments(True)) == 0 and torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(threads)
+    assert torch.tensor([1e-39]).mul(1.0).item() != 0  # torch's default again after the block

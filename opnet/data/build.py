@@ -6,12 +6,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._checks import real_array
 from .._deprecation import renamed_keyword
+from .._parallel import cluster_backend
 from ..inner_products import INNER_PRODUCTS, channel_digest, get_inner_products
-from ..mesh import Mesh
+from ..mesh import Mesh, check_shapes
 from ..shape_difference import KINDS, shape_differences
 from ..spectral import eigenbasis
-from .channels import warn_if_not_rigid
+from .channels import chunked_operators, warn_if_not_rigid
 from .splits import furthest_point_subset
 from .storage import Collection
 
@@ -47,7 +49,11 @@ def assemble(
     for ip in ips:
         if ip.name not in INNER_PRODUCTS:
             warn_if_not_rigid(ip, basis)
-    operators = shape_differences(basis, vertices, ips, progress=progress).astype(np.float32)
+    if cluster_backend() is None:
+        operators = shape_differences(basis, vertices, ips, progress=progress).astype(np.float32)
+    else:  # checked here, then computed in chunks on the cluster's workers
+        check_shapes("vertices", real_array("vertices", vertices, ("B", base.n_vertices, 3)), faces)
+        operators = chunked_operators(basis, vertices, ips, progress=progress)
     subset = []
     fps_vertices = vertices if fps_vertices is None else fps_vertices
     for sc in sorted(set(subcollection[split == "test"])):

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import re
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +25,7 @@ from tqdm.auto import tqdm
 
 from .._checks import warn_user
 from .._files import atomic_write
+from .._parallel import chunk_map
 from ..inner_products import (
     ChannelError,
     InnerProduct,
@@ -51,6 +53,8 @@ __all__ = [
 RIGID_TOLERANCE = 1e-6
 # Shapes per task when a channel without project_batch is computed shape by shape in processes.
 _CHUNK = 32
+# Shapes per chunk of the fast path (one task each on a cluster).
+_FAST_CHUNK = 1024
 
 
 def resolve(channels, held: tuple, digests: dict, instances: dict, *, where: str = "the collection") -> list:
@@ -125,17 +129,16 @@ def compute_operators(
     With a :meth:`~opnet.InnerProduct.project_batch` of its own, in batches (the fast path; a built-in's batches in
     ``n_jobs`` threads); otherwise shape by shape, in ``n_jobs`` processes; ``n_jobs`` as joblib's (default, or
     -1: all cores; 1: in this process). A progress bar over the shapes.
+
+    Under a cluster's joblib backend (``with joblib.parallel_config(backend="dask"):``, see the docs' *Beyond one
+    machine*), both run as tasks on its workers: the fast path one task per chunk of 1024 shapes (each on its
+    worker's cores), the other on all of the cluster's workers.
     """
     vertices = np.asarray(vertices)
     k0_pinvs = base_pinvs(basis, [ip])  # once for all the shapes
     if type(ip).project_batch is not InnerProduct.project_batch:
-        out = np.empty((len(vertices), basis.k, basis.k), np.float32)
         threads = None if n_jobs in (None, -1) else n_jobs
-        starts = range(0, len(vertices), 1024)  # float64 chunks of a float32 collection (~30 MB at 1k vertices)
-        for s in tqdm(starts, desc=f"channel {ip.name}", unit="chunk", disable=_hidden(progress, len(starts))):
-            chunk = vertices[s : s + 1024].astype(np.float64)
-            out[s : s + 1024] = fast_path(basis, chunk, [ip], k0_pinv=k0_pinvs, threads=threads)[:, 0]
-        return out
+        return chunked_operators(basis, vertices, [ip], k0_pinvs, threads=threads, progress=progress)[:, 0]
     k0_pinv = k0_pinvs[0]
     chunks = [vertices[s : s + _CHUNK] for s in range(0, len(vertices), _CHUNK)]
     bar = tqdm(total=len(vertices), desc=f"channel {ip.name}", unit="shape", disable=_hidden(progress, len(chunks)))
@@ -156,6 +159,31 @@ def compute_operators(
     finally:
         bar.close()
     return np.concatenate(parts) if parts else np.zeros((0, basis.k, basis.k), np.float32)
+
+
+def chunked_operators(basis, vertices, ips, k0_pinvs=None, *, threads=None, progress=None) -> np.ndarray:
+    """Shape differences ``(N, len(ips), k, k)`` float32 of shapes ``(N, n, 3)`` (checked already) on the base's
+    faces, by the fast path in chunks of 1024 shapes (float64 chunks of a float32 collection, ~30 MB each at 1k
+    vertices): one after the other here, each in ``threads`` threads, or as tasks on a cluster's workers
+    (:func:`opnet._parallel.chunk_map`). ``k0_pinvs``: the base's :func:`~opnet.shape_difference.base_pinvs` of
+    ``ips`` when computed already. A progress bar over the chunks.
+    """
+    k0_pinvs = base_pinvs(basis, ips) if k0_pinvs is None else k0_pinvs
+    starts = range(0, len(vertices), _FAST_CHUNK)
+    out = np.empty((len(vertices), len(ips), basis.k, basis.k), np.float32)
+    task = partial(_fast_path_chunk, basis, ips, k0_pinvs, threads)
+    results = chunk_map(task, [vertices[s : s + _FAST_CHUNK] for s in starts])
+    desc = "shape differences" if len(ips) > 1 else f"channel {ips[0].name}"
+    for s, part in zip(
+        starts, tqdm(results, total=len(starts), desc=desc, unit="chunk", disable=_hidden(progress, len(starts)))
+    ):
+        out[s : s + len(part)] = part
+    return out
+
+
+def _fast_path_chunk(basis, ips, k0_pinvs, threads, vertices) -> np.ndarray:
+    """:func:`~opnet.shape_difference.fast_path` of one chunk of (checked) shapes, float32."""
+    return fast_path(basis, vertices.astype(np.float64), ips, k0_pinv=k0_pinvs, threads=threads).astype(np.float32)
 
 
 def _hidden(progress, batches: int) -> bool:
