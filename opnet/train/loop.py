@@ -129,7 +129,7 @@ def subnormals_flushed(device):
     to 6 times as long (one thread: 105-181 ms against 16-32 ms, beside 40-90 ms for the forward and backward
     passes). The flag belongs
     to a thread, and torch's worker threads keep the one they started with, so the optimiser steps in this thread
-    alone (:func:`_step`); the weights and the optimiser state then never hold a subnormal number, whatever threads
+    alone; the weights and the optimiser state then never hold a subnormal number, whatever threads
     computed the gradients.
     """
     flushed = device.type == "cpu" and torch.set_flush_denormal(True)
