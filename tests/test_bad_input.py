@@ -414,3 +414,45 @@ def test_the_shared_checks():
         real_array("x", [[1, 2], [3]])
     with pytest.raises(TypeError, match="must be a real array"):
         real_array("x", np.array([True, False]))
+
+
+def test_the_findings_options_name_bad_input(tmp_path, tiny_collection):
+    """Seeds, comparisons, the reproduction's counts and the writer lock (issues 40 and 43) answer bad input with
+    errors that name the argument and the fix."""
+    from opnet import reproduce
+    from opnet.experiments import RunSpec, compare
+
+    for bad in (-1, 0, 2.5, "3", (0, 0), (0, -1), (True,)):
+        with pytest.raises((ValueError, TypeError), match="seeds"):
+            RunSpec(seeds=bad)
+    with pytest.raises(TypeError, match=r"tuple\(range\(3\)\)"):
+        RunSpec(seeds=3)  # a count where the seeds are listed: the fix spelled out
+    for bad in (-1, 2.5, True, 2**64):
+        with pytest.raises(ValueError, match="seed must be an integer from 0"):
+            opnet.train.TrainConfig(seed=bad)
+    for field in ("seeds", "jobs"):
+        for bad in (0, -2, "x", 1.5):
+            with pytest.raises(ValueError, match=f"{field} must be a count"):
+                reproduce.ReproduceConfig(**{field: bad})
+    for bad in (0, [], -1):
+        with pytest.raises(ValueError, match="seeds must be a count"):
+            opnet.experiments.ablation(None, ["A"], seeds=bad)
+    shapes = dict(shapes=[0, 1], d_R_shapes=[[1.0, 2.0]], seeds=[0])
+    rows = [dict(method="a", split="test", d_R=1.5, **shapes), dict(method="b", split="test", d_R=1.5, **shapes)]
+    assert compare(rows, "a", {"method": "b"}).verdict == "no difference shown"  # a name is the method field
+    with pytest.raises(ValueError, match="rows must be a list of result rows"):
+        compare("rows", "a", "b")
+    with pytest.raises(ValueError, match="b must be the fields of one method's rows"):
+        compare(rows, "a", 3)
+    with pytest.raises(ValueError, match="0 rows on 'tst'"):
+        compare(rows, "a", "b", split="tst")
+    with pytest.raises(ValueError, match="metric 'd_Q' is not one of the row's \\(d_R\\)"):
+        compare(rows, "a", "b", metric="d_Q")
+    with pytest.raises(ValueError, match="factor must be a number > 0"):
+        compare(rows, "a", "b", factor=0)
+    a_file = tmp_path / "results"
+    a_file.write_text("")
+    with pytest.raises(ValueError, match="results is a file; give a folder"):
+        reproduce.reproduce("quick", a_file)
+    with pytest.raises(ValueError, match="results is a file; give a directory path"):
+        opnet.train.fit(tiny_collection(), epochs=1, hidden=8, run_dir=a_file, progress=False)

@@ -79,13 +79,18 @@ class RunSpec:
         if self.architecture == "operatornet" and not channels:
             raise ValueError("an operatornet run needs channels (e.g. ('area', 'extrinsic')).")
         object.__setattr__(self, "channels", () if self.architecture == "pointnet" else channels)
-        if isinstance(self.seeds, int):
+        if isinstance(self.seeds, int) and not isinstance(self.seeds, bool) and self.seeds >= 1:
             raise TypeError(
                 f"seeds lists the seeds, e.g. (0, 1, 2) (tuple(range({self.seeds})) for {self.seeds} of them)."
             )
-        seeds = tuple(self.seeds)
-        if not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds) or len(set(seeds)) != len(
-            seeds
+        try:
+            seeds = tuple(self.seeds)
+        except TypeError:
+            raise ValueError(f"seeds must be distinct integers >= 0, e.g. (0, 1, 2), got {self.seeds!r}.") from None
+        if (
+            isinstance(self.seeds, str)
+            or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)
+            or len(set(seeds)) != len(seeds)
         ):
             raise ValueError(f"seeds must be distinct integers >= 0, e.g. (0, 1, 2), got {self.seeds!r}.")
         if seeds and self.seed != 0:

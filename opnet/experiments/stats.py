@@ -16,6 +16,7 @@ seed is never called better (one training cannot tell another training's spread)
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -164,6 +165,11 @@ def summarize_seeds(rows: list[dict], *, level: float = LEVEL, metrics=METRICS) 
 
 def _errors(row: dict, metric: str) -> np.ndarray:
     values = row.get(f"{metric}_shapes")
+    if values is None and metric not in row:
+        held = sorted(k[: -len("_shapes")] for k in row if k.endswith("_shapes"))
+        raise ValueError(
+            f"metric {metric!r} is not one of the row's ({', '.join(held) or 'none per shape'}); e.g. metric='d_R'."
+        )
     if values is None:
         raise ValueError(
             f"the row of {row.get('method')!r} has no per-shape {metric}: evaluate with per_shape=True "
@@ -172,18 +178,35 @@ def _errors(row: dict, metric: str) -> np.ndarray:
     return np.atleast_2d(np.asarray(values, dtype=np.float64))
 
 
+def _fields(name: str, value) -> dict:
+    """``compare``'s ``a`` or ``b`` as fields: a dict as it is, a string as a method's name."""
+    if isinstance(value, str):
+        return {"method": value}
+    if isinstance(value, Mapping):
+        return dict(value)
+    raise ValueError(
+        f"{name} must be the fields of one method's rows (a dict, e.g. {{'entry': 'int+ext'}}) or its method name, "
+        f"got {value!r}."
+    )
+
+
 def compare(
     rows, a: dict, b: dict, *, metric: str = "d_R", split: str = "test", level: float = LEVEL, factor: float = 1.0
 ) -> Comparison:
     """The paired comparison (:func:`paired_difference`) of the method whose rows have the fields ``a`` against the
-    one with ``b`` (:func:`opnet.experiments.rows.matches`), on ``split``: the same shapes, seed by seed (a
-    deterministic method of one row, a baseline, stands beside each seed of the other). The verdict says which has the
-    lower ``metric``. ``factor``: compare ``a`` with ``factor`` times ``b`` (the difference ``a − factor·b``), for a
-    claim such as "within 5× of" (``factor=5``) or "ten times better than" (``factor=0.1``).
+    one with ``b`` (:func:`opnet.experiments.rows.matches`; a string: the ``method`` field), on ``split``: the same
+    shapes, seed by seed (a deterministic method of one row, a baseline, stands beside each seed of the other). The
+    verdict says which has the lower ``metric``. ``factor``: compare ``a`` with ``factor`` times ``b`` (the
+    difference ``a − factor·b``), for a claim such as "within 5× of" (``factor=5``) or "ten times better than"
+    (``factor=0.1``).
     """
     if not (isinstance(factor, (int, float)) and not isinstance(factor, bool) and factor > 0):
         raise ValueError(f"factor must be a number > 0 (1: a plain comparison), got {factor!r}.")
     from .rows import matches
+
+    if isinstance(rows, (str, bytes, Mapping)) or not all(isinstance(r, Mapping) for r in rows):
+        raise ValueError("rows must be a list of result rows (dicts), e.g. those of opnet.ablation or read_results.")
+    a, b = _fields("a", a), _fields("b", b)
 
     def find(fields):
         found = [r for r in rows if r.get("split") == split and matches(r, **fields)]

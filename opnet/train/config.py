@@ -14,7 +14,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from .. import options as cli_options
-from .._checks import check_int, check_number
+from .._checks import check_int, check_number, is_integer
 from ..devices import resolve_device  # re-exported: opnet.train.config.resolve_device as before
 from ..inner_products import get_inner_product, split_channels
 from ..model import ARCHITECTURES, VARIANTS
@@ -185,6 +185,8 @@ class TrainConfig:
             raise ValueError(f"schedule must be one of {SCHEDULES}, got {self.schedule!r}.")
         for name in ("epochs", "batch_size", "hidden"):
             check_int(name, getattr(self, name))
+        if not (is_integer(self.seed) and 0 <= self.seed < 2**63):
+            raise ValueError(f"seed must be an integer from 0 to 2**63 - 1, got {self.seed!r}.")
         every = self.checkpoint_every
         if isinstance(every, bool) or not (isinstance(every, (int, float)) and every >= 0):
             raise ValueError(
