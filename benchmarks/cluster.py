@@ -22,6 +22,7 @@ Run::
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import tempfile
@@ -69,7 +70,7 @@ def measure(args) -> dict:
     with cluster, distributed.Client(cluster), tempfile.TemporaryDirectory() as root:
         timings, ops = {}, {}
         for where in ("local", "dask"):
-            with joblib.parallel_config(backend="dask") if where == "dask" else _nothing():
+            with joblib.parallel_config(backend="dask") if where == "dask" else contextlib.nullcontext():
                 # warm-up, not counted: the 2k body model, the local processes' imports, the channel's first call
                 mapped_collection(few.subset([0, 1]), "2k", root=f"{root}/warm-{where}", chunk=1, progress=False)
                 humans.subset([0, 1]).with_channels([ShapeByShapeArea()], recompute=True, progress=False)
@@ -84,14 +85,6 @@ def measure(args) -> dict:
     result["equal"] = all(np.array_equal(a, b) for a, b in zip(ops["local"], ops["dask"]))
     result["loadavg_1min_at_end"] = round(os.getloadavg()[0], 2)
     return result
-
-
-class _nothing:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
 
 
 def report(r: dict) -> str:

@@ -113,15 +113,16 @@ def cluster_backend():
         parallel.MultiprocessingBackend,
         parallel.SequentialBackend,
     )
-    return None if isinstance(backend, local) else backend
+    return None if type(backend) in local else backend  # exact types: Ray's subclasses the multiprocessing one
 
 
-def chunk_map(fn, chunks):
+def chunk_map(fn, chunks, *, here: bool = False):
     """``fn(chunk)`` for each of ``chunks``, yielded in order: as tasks of the cluster's joblib backend when one is
-    active (:func:`cluster_backend`: one task per chunk, spread over all of its workers), else one after the other
-    in this process (``fn`` may use this machine's cores itself, as the operators' fast path does).
+    active (:func:`cluster_backend`: one task per chunk, spread over all of its workers) and ``here`` is false, else
+    one after the other in this process (``fn`` may use this machine's cores itself, as the operators' fast path
+    does).
     """
-    if cluster_backend() is None:
+    if here or cluster_backend() is None:
         yield from map(fn, chunks)
         return
     import joblib

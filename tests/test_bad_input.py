@@ -417,8 +417,8 @@ def test_the_shared_checks():
 
 
 def test_the_findings_options_name_bad_input(tmp_path, tiny_collection):
-    """Seeds, comparisons, the reproduction's counts and the writer lock (issues 40 and 43) answer bad input with
-    errors that name the argument and the fix."""
+    """Seeds, comparisons, the reproduction's counts and folders (issues 40 and 43) answer bad input with errors
+    that name the argument and the fix."""
     from opnet import reproduce
     from opnet.experiments import RunSpec, compare
 
@@ -440,14 +440,18 @@ def test_the_findings_options_name_bad_input(tmp_path, tiny_collection):
     shapes = dict(shapes=[0, 1], d_R_shapes=[[1.0, 2.0]], seeds=[0])
     rows = [dict(method="a", split="test", d_R=1.5, **shapes), dict(method="b", split="test", d_R=1.5, **shapes)]
     assert compare(rows, "a", {"method": "b"}).verdict == "no difference shown"  # a name is the method field
-    with pytest.raises(ValueError, match="rows must be a list of result rows"):
-        compare("rows", "a", "b")
+    for bad in ("rows", None, [], [1]):
+        with pytest.raises(ValueError, match="rows must be a list of result rows"):
+            compare(bad, "a", "b")
+    assert compare(iter(rows), "a", "b").verdict == "no difference shown"  # any iterable of rows
     with pytest.raises(ValueError, match="b must be the fields of one method's rows"):
         compare(rows, "a", 3)
     with pytest.raises(ValueError, match="0 rows on 'tst'"):
         compare(rows, "a", "b", split="tst")
-    with pytest.raises(ValueError, match="metric 'd_Q' is not one of the row's \\(d_R\\)"):
-        compare(rows, "a", "b", metric="d_Q")
+    for bad in ("d_Q", "n"):  # n_shapes is a count, not a metric
+        with pytest.raises(ValueError, match=f"metric '{bad}' is not one of the row's per-shape metrics \\(d_R\\)"):
+            compare([dict(r, n_shapes=2) for r in rows], "a", "b", metric=bad)
+    assert opnet.train.TrainConfig(seed=np.int64(2)).seed == 2 and type(RunSpec(seeds=[np.int64(1)]).seeds[0]) is int
     with pytest.raises(ValueError, match="factor must be a number > 0"):
         compare(rows, "a", "b", factor=0)
     a_file = tmp_path / "results"

@@ -51,6 +51,8 @@ def test_collections_built_on_a_cluster_equal_those_of_one_machine(client, tiny_
     local_more = local.with_channels(channels, recompute=True, n_jobs=1, progress=False)
     remote_more, tasks = _on_cluster(client, lambda: remote.with_channels(channels, recompute=True, progress=False))
     assert tasks >= 2 and np.array_equal(remote_more.operators, local_more.operators)
+    here, tasks = _on_cluster(client, lambda: remote.with_channels(["extrinsic"], recompute=True, n_jobs=1))
+    assert tasks == 0 and np.array_equal(here.operators, local.operators[:, 2:])  # n_jobs=1: in this process
     few = humans.subset(np.concatenate([humans.indices(s)[:2] for s in ("val", "test", "train")]))
     # in two local processes (in this one, its BLAS's threads sum in another order: 1e-13 apart)
     one = mapped_collection(few, "2k", root=tmp_path / "local", n_jobs=2, chunk=2, progress=False)

@@ -1,7 +1,5 @@
 """Training: fit, checkpoints, exact resume (also after SIGKILL), mismatch errors, NaN stop, CLI, DDP."""
 
-import contextlib
-
 import pytest
 
 pytest.importorskip("torch")  # the net extra: skipped by a core-only install
@@ -14,6 +12,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -534,32 +533,51 @@ def test_one_spec_trains_the_same_checkpoint_bit_for_bit_and_its_digest_names_it
     assert train.run_digest(moved, **spec.fit_options()) == train.run_digest(coll, **spec.fit_options())
 
 
-def test_training_flushes_subnormals_and_steps_in_one_thread():
+def test_the_optimiser_step_flushes_subnormals_in_one_thread_and_leaks_nothing():
     """Adam's second moments of weights whose gradients nearly vanish fall below float32's smallest normal number,
-    where the CPU's slow path made each step of a default run 3-6 times as long: fit's optimiser never holds one,
-    whatever the thread count, and the thread count is restored after each step."""
+    where the CPU's slow path made each step of a default run 3-6 times as long: the optimiser's step never leaves
+    one, on any number of threads, and after it neither this thread nor torch's workers flush (so the forward and
+    backward passes compute as they would without it, whenever the workers were started)."""
     from opnet.train import loop
 
     tiny = torch.finfo(torch.float32).tiny
     cpu = torch.device("cpu")
 
-    def second_moments(flushed: bool) -> torch.Tensor:
-        weight = torch.nn.Parameter(torch.ones(1000))
-        optimizer = loop.adam([weight], 1e-3)
-        with loop.subnormals_flushed(cpu) if flushed else contextlib.nullcontext():
-            for _ in range(3):
-                weight.grad = torch.full((1000,), 1e-20)  # its square, 1e-40, is subnormal
-                loop._step(optimizer, cpu)
-        return optimizer.state[weight]["exp_avg_sq"]
-
     def subnormal(t):
         return int(((t != 0) & (t.abs() < tiny)).sum())
 
-    assert subnormal(second_moments(False)) == 1000  # torch's default keeps them (and is slow on them)
+    def second_moments(step) -> torch.Tensor:
+        weight = torch.nn.Parameter(torch.ones(100_000))
+        optimizer = loop.adam([weight], 1e-3)
+        for _ in range(3):
+            weight.grad = torch.full((100_000,), 1e-20)  # its square, 1e-40, is subnormal
+            step(optimizer)
+        return optimizer.state[weight]["exp_avg_sq"]
+
     threads = torch.get_num_threads()
     torch.set_num_threads(2)
     try:
-        assert subnormal(second_moments(True)) == 0 and torch.get_num_threads() == 2
+        tiny_values = torch.full((1_000_000,), 1e-20)
+        assert subnormal(tiny_values * tiny_values) == 1_000_000  # torch's workers exist now, and do not flush
+        assert subnormal(second_moments(lambda o: o.step())) == 100_000  # torch's own step keeps them (slowly)
+        assert subnormal(second_moments(lambda o: loop.optimizer_step(o, cpu))) == 0
+        assert torch.get_num_threads() == 2
+        assert subnormal(tiny_values * tiny_values) == 1_000_000  # nothing flushes after it, workers included
     finally:
         torch.set_num_threads(threads)
-    assert torch.tensor([1e-39]).mul(1.0).item() != 0  # torch's default again after the block
+
+
+def test_a_training_leaves_no_thread_flushing_subnormals(tiny_collection, tmp_path):
+    """In a fresh process whose first parallel torch work is fit's (its workers start inside it), the process
+    computes with subnormal numbers afterwards, on every thread."""
+    code = (
+        "import sys, torch, opnet; sys.path.insert(0, 'tests'); from conftest import _tiny_collection\n"
+        "torch.set_num_threads(2)\n"
+        "opnet.train.fit(_tiny_collection(), epochs=2, hidden=16, batch_size=8, progress=False)\n"
+        "x = torch.full((1_000_000,), 1e-20) ** 2\n"
+        "print(int(((x != 0) & (x.abs() < torch.finfo(torch.float32).tiny)).sum()))\n"
+    )
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split()[-1] == "1000000"

@@ -131,14 +131,15 @@ def compute_operators(
     -1: all cores; 1: in this process). A progress bar over the shapes.
 
     Under a cluster's joblib backend (``with joblib.parallel_config(backend="dask"):``, see the docs' *Beyond one
-    machine*), both run as tasks on its workers: the fast path one task per chunk of 1024 shapes (each on its
-    worker's cores), the other on all of the cluster's workers.
+    machine*), both run as tasks on its workers (but with ``n_jobs=1``): the fast path one task per chunk of 1024
+    shapes (each on its worker machine's cores), the other on all of the cluster's workers.
     """
     vertices = np.asarray(vertices)
     k0_pinvs = base_pinvs(basis, [ip])  # once for all the shapes
     if type(ip).project_batch is not InnerProduct.project_batch:
         threads = None if n_jobs in (None, -1) else n_jobs
-        return chunked_operators(basis, vertices, [ip], k0_pinvs, threads=threads, progress=progress)[:, 0]
+        here = n_jobs == 1
+        return chunked_operators(basis, vertices, [ip], k0_pinvs, threads=threads, here=here, progress=progress)[:, 0]
     k0_pinv = k0_pinvs[0]
     chunks = [vertices[s : s + _CHUNK] for s in range(0, len(vertices), _CHUNK)]
     bar = tqdm(total=len(vertices), desc=f"channel {ip.name}", unit="shape", disable=_hidden(progress, len(chunks)))
@@ -161,18 +162,20 @@ def compute_operators(
     return np.concatenate(parts) if parts else np.zeros((0, basis.k, basis.k), np.float32)
 
 
-def chunked_operators(basis, vertices, ips, k0_pinvs=None, *, threads=None, progress=None) -> np.ndarray:
+def chunked_operators(
+    basis, vertices, ips, k0_pinvs=None, *, threads=None, here: bool = False, progress=None
+) -> np.ndarray:
     """Shape differences ``(N, len(ips), k, k)`` float32 of shapes ``(N, n, 3)`` (checked already) on the base's
     faces, by the fast path in chunks of 1024 shapes (float64 chunks of a float32 collection, ~30 MB each at 1k
-    vertices): one after the other here, each in ``threads`` threads, or as tasks on a cluster's workers
-    (:func:`opnet._parallel.chunk_map`). ``k0_pinvs``: the base's :func:`~opnet.shape_difference.base_pinvs` of
+    vertices): one after the other here, each in ``threads`` threads, or as tasks on a cluster's workers unless
+    ``here`` (:func:`opnet._parallel.chunk_map`). ``k0_pinvs``: the base's :func:`~opnet.shape_difference.base_pinvs` of
     ``ips`` when computed already. A progress bar over the chunks.
     """
     k0_pinvs = base_pinvs(basis, ips) if k0_pinvs is None else k0_pinvs
     starts = range(0, len(vertices), _FAST_CHUNK)
     out = np.empty((len(vertices), len(ips), basis.k, basis.k), np.float32)
     task = partial(_fast_path_chunk, basis, ips, k0_pinvs, threads)
-    results = chunk_map(task, [vertices[s : s + _FAST_CHUNK] for s in starts])
+    results = chunk_map(task, [vertices[s : s + _FAST_CHUNK] for s in starts], here=here)
     desc = "shape differences" if len(ips) > 1 else f"channel {ips[0].name}"
     for s, part in zip(
         starts, tqdm(results, total=len(starts), desc=desc, unit="chunk", disable=_hidden(progress, len(starts)))

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field, replace
 from numbers import Real
 from pathlib import Path
 
+from .._checks import is_integer
 from ..inner_products import (
     INNER_PRODUCTS,
     channel_digest,
@@ -89,13 +90,13 @@ class RunSpec:
             raise ValueError(f"seeds must be distinct integers >= 0, e.g. (0, 1, 2), got {self.seeds!r}.") from None
         if (
             isinstance(self.seeds, str)
-            or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds)
+            or not all(is_integer(s) and 0 <= s < 2**63 for s in seeds)
             or len(set(seeds)) != len(seeds)
         ):
             raise ValueError(f"seeds must be distinct integers >= 0, e.g. (0, 1, 2), got {self.seeds!r}.")
         if seeds and self.seed != 0:
             raise ValueError(f"give seed={self.seed} or seeds={seeds}, not both (seeds lists every seed to train).")
-        object.__setattr__(self, "seeds", seeds)
+        object.__setattr__(self, "seeds", tuple(map(int, seeds)))
         if self.schedule is not None and not isinstance(self.schedule, str):  # its name: TrainConfig checks it
             raise ValueError(f"schedule must be None (the variant's) or a schedule's name, got {self.schedule!r}.")
         if not re.fullmatch(r"[A-Za-z0-9_.+-]+", self.group):

@@ -165,10 +165,11 @@ def summarize_seeds(rows: list[dict], *, level: float = LEVEL, metrics=METRICS) 
 
 def _errors(row: dict, metric: str) -> np.ndarray:
     values = row.get(f"{metric}_shapes")
-    if values is None and metric not in row:
-        held = sorted(k[: -len("_shapes")] for k in row if k.endswith("_shapes"))
+    if not isinstance(values, list) and metric not in METRICS:
+        held = sorted(k[: -len("_shapes")] for k, v in row.items() if k.endswith("_shapes") and isinstance(v, list))
         raise ValueError(
-            f"metric {metric!r} is not one of the row's ({', '.join(held) or 'none per shape'}); e.g. metric='d_R'."
+            f"metric {metric!r} is not one of the row's per-shape metrics ({', '.join(held) or 'none'}); "
+            "e.g. metric='d_R'."
         )
     if values is None:
         raise ValueError(
@@ -204,7 +205,11 @@ def compare(
         raise ValueError(f"factor must be a number > 0 (1: a plain comparison), got {factor!r}.")
     from .rows import matches
 
-    if isinstance(rows, (str, bytes, Mapping)) or not all(isinstance(r, Mapping) for r in rows):
+    try:
+        rows = [] if isinstance(rows, (str, bytes, Mapping)) else list(rows)
+    except TypeError:
+        rows = []
+    if not rows or not all(isinstance(r, Mapping) for r in rows):
         raise ValueError("rows must be a list of result rows (dicts), e.g. those of opnet.ablation or read_results.")
     a, b = _fields("a", a), _fields("b", b)
 

@@ -30,7 +30,7 @@ from ..model import rigid_alignment_loss
 from ..shape_difference import CHANNEL_SETS
 from .config import SCHEDULES, TrainConfig, parse_channels
 from .curves import Convergence, convergence
-from .loop import TrainingError, adam, placement, run_epochs, subnormals_flushed
+from .loop import TrainingError, adam, placement, run_epochs
 from .network import build_network, training_data
 from .rundir import (
     RUN_FILES,
@@ -189,8 +189,7 @@ def fit(
             disable=(progress is False) or place.rank != 0,
         )
         try:
-            with subnormals_flushed(place.device):
-                run_epochs(net, optimizer, data, state, config, place, run=run, bar=bar, loss=rigid_alignment_loss)
+            run_epochs(net, optimizer, data, state, config, place, run=run, bar=bar, loss=rigid_alignment_loss)
         finally:
             bar.close()
         if run is not None:

@@ -187,6 +187,7 @@ class TrainConfig:
             check_int(name, getattr(self, name))
         if not (is_integer(self.seed) and 0 <= self.seed < 2**63):
             raise ValueError(f"seed must be an integer from 0 to 2**63 - 1, got {self.seed!r}.")
+        object.__setattr__(self, "seed", int(self.seed))  # a numpy integer: the run of the same Python int
         every = self.checkpoint_every
         if isinstance(every, bool) or not (isinstance(every, (int, float)) and every >= 0):
             raise ValueError(

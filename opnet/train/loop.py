@@ -9,7 +9,6 @@ to floating-point summation order. Only rank 0 writes the run directory.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import time
@@ -22,7 +21,7 @@ from ..devices import resolve_device
 from ..model import rigid_alignment_loss
 from .rundir import RunState
 
-__all__ = ["TrainingError", "Placement", "placement", "run_epochs", "subnormals_flushed"]
+__all__ = ["TrainingError", "Placement", "placement", "run_epochs", "optimizer_step"]
 
 
 class TrainingError(RuntimeError):
@@ -119,40 +118,35 @@ def adam(parameters, lr: float) -> torch.optim.Adam:
         return torch.optim.Adam(parameters, lr=lr)
 
 
-@contextlib.contextmanager
-def subnormals_flushed(device):
-    """On the CPU, float arithmetic of this thread flushes subnormal numbers (below 1.2e-38 in float32) to zero, as
-    inputs and results, until the block ends (then torch's default again); elsewhere nothing changes.
+def optimizer_step(optimizer, device) -> None:
+    """``optimizer.step()``; on the CPU in this thread alone, with subnormal numbers (below 1.2e-38 in float32)
+    flushed to zero as its inputs and results, then the thread count and the flag as they were.
 
     Adam's second moments of the weights whose gradients all but vanish fall below that: a fifth of a ``default``
     run's optimiser state after 60 epochs, where x86 takes a slow path that made each optimiser step of that run 3
     to 6 times as long (one thread: 105-181 ms against 16-32 ms, beside 40-90 ms for the forward and backward
-    passes). The flag belongs
-    to a thread, and torch's worker threads keep the one they started with, so the optimiser steps in this thread
-    alone; the weights and the optimiser state then never hold a subnormal number, whatever threads
-    computed the gradients.
+    passes). The flag belongs to a thread, and a worker thread of torch takes it from the thread that starts it, for
+    good: so it is set only while no worker runs (one thread), and the forward and backward passes, whatever threads
+    run them and whenever they were started, never flush. The update is elementwise: its result is that of any
+    number of threads.
     """
-    flushed = device.type == "cpu" and torch.set_flush_denormal(True)
+    if device.type != "cpu":
+        optimizer.step()
+        return
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    flushed = not _flushing() and torch.set_flush_denormal(True)
     try:
-        yield
+        optimizer.step()
     finally:
         if flushed:
             torch.set_flush_denormal(False)
-
-
-def _step(optimizer, device) -> None:
-    """``optimizer.step()``, on the CPU in this thread alone (:func:`subnormals_flushed`); an elementwise update,
-    so the result is that of any number of threads.
-    """
-    threads = torch.get_num_threads() if device.type == "cpu" else 1
-    if threads == 1:
-        optimizer.step()
-        return
-    torch.set_num_threads(1)
-    try:
-        optimizer.step()
-    finally:
         torch.set_num_threads(threads)
+
+
+def _flushing() -> bool:
+    """Whether this thread flushes subnormal numbers to zero already (the caller's own setting, left as it is)."""
+    return torch.tensor([1e-39], dtype=torch.float32).mul(1.0).item() == 0.0
 
 
 def run_epochs(
@@ -241,7 +235,7 @@ def run_epochs(
             step += 1
             optimizer.zero_grad(set_to_none=True)
             batch_loss.backward()
-            _step(optimizer, device)
+            optimizer_step(optimizer, device)
             loss_sum += (per_shape.detach() * weight).sum().double()
         if world > 1:
             torch.distributed.all_reduce(loss_sum)

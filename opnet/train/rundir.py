@@ -69,8 +69,9 @@ __all__ = [
 CHECKPOINT_FORMAT = "opnet-checkpoint"
 CHECKPOINT_VERSION = 1
 # Bump when a change to the training code changes what a run produces: runs of other versions are not resumed.
-# 2: on the CPU, subnormal numbers are flushed to zero while training (opnet.train.loop.subnormals_flushed)
-TRAINING_VERSION = 2
+# 2: subnormal numbers flushed to zero while training; 3: only in the optimiser's step, in one thread
+# (opnet.train.loop.optimizer_step)
+TRAINING_VERSION = 3
 #: The files of a run directory (this module's docstring says what each holds).
 RUN_FILES = ("config.json", "latest.pt", "previous.pt", "best.pt", "history.json")
 
