@@ -1,8 +1,8 @@
-"""The notebooks' exercises: each has its solution in a code cell tagged ``solution``, collapsed in JupyterLab
-(``source_hidden``) and on the docs site (``hide-input``), which checks its own result with ``assert``; nbval runs
-those cells with the rest of the notebook (the ``notebooks`` tier), so a solution that stops working fails a test.
-This fast test checks the structure, and that every cell whose output nbval compares holds that output (a notebook
-saved without it would fail only in the slow tier)."""
+"""The notebooks' exercises: each has its solution in a code cell tagged ``solution``, collapsed with its printed
+answer in JupyterLab (``source_hidden``, ``outputs_hidden``) and on the docs site (``hide-cell``), which checks its
+own result with ``assert``; nbval runs those cells with the rest of the notebook (the ``notebooks`` tier), so a
+solution that stops working fails a test. This fast test checks the structure, and that every cell whose output
+nbval compares holds that output (a notebook saved without it would fail only in the slow tier)."""
 
 import json
 import re
@@ -26,8 +26,9 @@ def test_every_exercise_has_a_collapsed_solution_that_checks_itself(path):
     for i, cell in solutions:
         source = "".join(cell["source"])
         assert cell["cell_type"] == "code", f"{path.name}: cell {i} is tagged solution but is not code"
-        assert cell["metadata"].get("jupyter", {}).get("source_hidden"), f"{path.name}: solution cell {i} is shown"
-        assert "hide-input" in cell["metadata"]["tags"], f"{path.name}: solution cell {i} lacks the hide-input tag"
+        hidden = cell["metadata"].get("jupyter", {})
+        assert hidden.get("source_hidden") and hidden.get("outputs_hidden"), f"{path.name}: solution cell {i} is shown"
+        assert "hide-cell" in cell["metadata"]["tags"], f"{path.name}: solution cell {i} lacks the hide-cell tag"
         assert re.search(r"^\s*assert\b", source, re.M), f"{path.name}: solution cell {i} checks nothing"
         exercises = ["".join(c["source"]) for c in cells[:i] if c["cell_type"] == "markdown"]
         assert exercises and "Exercise" in exercises[-1], f"{path.name}: solution cell {i} follows no exercise"
