@@ -18,7 +18,15 @@ from typing import Callable
 from ..evaluate import Method, base_shape_method, geometric_method, nearest_neighbour_method, refined_method
 from ..shape_difference import KINDS
 
-__all__ = ["BASELINES", "register_baseline", "baseline_method", "REFINE", "FUNCCHAR", "refine_options"]
+__all__ = [
+    "BASELINES",
+    "register_baseline",
+    "baseline_method",
+    "REFINE",
+    "FUNCCHAR",
+    "FUNCCHAR_INT",
+    "refine_options",
+]
 
 #: The operator-matching settings of the refinement rows and the geometric baseline (:func:`opnet.reconstruct`),
 #: chosen on ``val`` (the docs' results page).
@@ -26,6 +34,9 @@ REFINE = dict(channels=("area", "extrinsic"), optimizer="lbfgs", smoothness=1.0)
 #: FuncChar's channels (Corman et al. 2017): the area and conformal operators of the shape and of its offset surface
 #: (:class:`opnet.inner_products.OffsetAreaInnerProduct`, ``OffsetConformalInnerProduct``).
 FUNCCHAR = ("area", "conformal", "offset_area", "offset_conformal")
+#: FuncChar's purely intrinsic version (the paper's "FuncChar (Int)" row): the shape's own area and conformal
+#: operators, at the same truncation.
+FUNCCHAR_INT = ("area", "conformal")
 
 #: key → builder ``(collection, budget, device) → Method``.
 BASELINES: dict[str, Callable] = {}
@@ -74,24 +85,29 @@ def _geometric(collection, budget, device):
     return geometric_method(collection, **refine_options(budget, device))
 
 
-def _funcchar(collection, budget, device):
+def _funcchar(collection, budget, device, channels=FUNCCHAR, name="FuncChar (Int+Ext)"):
     """FuncChar (Int+Ext): :func:`opnet.reconstruct` from the base shape matching the :data:`FUNCCHAR` operators
     (``collection`` must hold them: ``collection.with_channels([*collection.channels, "offset_area",
-    "offset_conformal"])``), with :data:`REFINE`'s optimiser and smoothness.
+    "offset_conformal"])``), with :data:`REFINE`'s optimiser and smoothness; ``channels=FUNCCHAR_INT``: FuncChar
+    (Int), the area and conformal operators alone.
     """
-    missing = [name for name in FUNCCHAR if name not in collection.channels]
+    missing = [c for c in channels if c not in collection.channels]
     if missing:
         raise ValueError(
-            f"FuncChar matches the channels {FUNCCHAR}; this collection lacks {missing}: pass "
+            f"{name} matches the channels {channels}; this collection lacks {missing}: pass "
             f"coll.with_channels([*coll.channels, {', '.join(map(repr, missing))}])."
         )
-    options = dict(refine_options(budget, device), channels=FUNCCHAR)
-    return refined_method(
-        base_shape_method(collection), collection, name="FuncChar (Int+Ext)", info=dict(baseline="funcchar"), **options
-    )
+    options = dict(refine_options(budget, device), channels=channels)
+    return refined_method(base_shape_method(collection), collection, name=name, info={}, **options)
+
+
+def _funcchar_int(collection, budget, device):
+    """FuncChar (Int): :func:`_funcchar` on :data:`FUNCCHAR_INT`."""
+    return _funcchar(collection, budget, device, FUNCCHAR_INT, "FuncChar (Int)")
 
 
 register_baseline("nearest_neighbour", _nearest_neighbour)
 register_baseline("base_shape", _base_shape)
 register_baseline("geometric", _geometric)
 register_baseline("funcchar", _funcchar)
+register_baseline("funcchar_int", _funcchar_int)

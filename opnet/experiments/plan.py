@@ -379,6 +379,14 @@ def declare(budget: Budget, *, ablation_sets: dict | None = None, seeds: int = 1
             part="refine",
             paper_row="FuncChar (Int+Ext)",
         ),
+        Entry(
+            "funcchar-int",
+            "FuncChar (Int)",
+            baseline="funcchar_int",
+            test_sets=REFINE_SETS,
+            part="refine",
+            paper_row="FuncChar (Int)",
+        ),
     ]
     entries += [
         Entry(f"{key}+refined", f"{by_key[key].name} + refinement", refines=key, test_sets=REFINE_SETS, part="refine")

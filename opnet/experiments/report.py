@@ -490,7 +490,7 @@ def headline_markdown(rows: list[dict]) -> list[str]:
         if r.get("table") == "table1"
         and r.get("group") not in MAPPED_GROUPS
         and not r.get("refined")
-        and r.get("baseline") not in ("geometric", "funcchar")
+        and r.get("baseline") not in ("geometric", "funcchar", "funcchar_int")
     ]
     if not t1:
         return []
