@@ -420,7 +420,7 @@ def test_the_findings_options_name_bad_input(tmp_path, tiny_collection):
     """Seeds, comparisons, the reproduction's counts and folders (issues 40 and 43) answer bad input with errors
     that name the argument and the fix."""
     from opnet import reproduce
-    from opnet.experiments import RunSpec, compare
+    from opnet.experiments import RunSpec, claims, compare
 
     for bad in (-1, 0, 2.5, "3", (0, 0), (0, -1), (True,)):
         with pytest.raises((ValueError, TypeError), match="seeds"):
@@ -440,9 +440,21 @@ def test_the_findings_options_name_bad_input(tmp_path, tiny_collection):
     shapes = dict(shapes=[0, 1], d_R_shapes=[[1.0, 2.0]], seeds=[0])
     rows = [dict(method="a", split="test", d_R=1.5, **shapes), dict(method="b", split="test", d_R=1.5, **shapes)]
     assert compare(rows, "a", {"method": "b"}).verdict == "no difference shown"  # a name is the method field
-    for bad in ("rows", None, [], [1]):
+    for bad in ("rows", None, [1], {"method": "a"}):
         with pytest.raises(ValueError, match="rows must be a list of result rows"):
             compare(bad, "a", "b")
+        with pytest.raises(ValueError, match="rows must be a list of result rows"):
+            claims.judge("nn-far-behind", bad)
+    assert claims.judge_all([]) == []  # no rows yet: no claim judged
+    with pytest.raises(ValueError, match="unknown claim 'nn-behind'; the claims are"):
+        claims.judge("nn-behind", rows)
+    with pytest.raises(ValueError, match="claim must be a Claim"):
+        claims.judge(3, rows)
+    good = dict(key="k", statement="s", better={"method": "a"}, worse={"method": "b"}, source="mine")
+    assert claims.judge(claims.Claim(**good), rows).verdict == "inconclusive"  # rows of another table
+    for field, bad in (("key", ""), ("better", "a"), ("where", None), ("metric", ""), ("factor", 0), ("factor", True)):
+        with pytest.raises(ValueError, match=f"{field} must be"):
+            claims.Claim(**dict(good, **{field: bad}))
     assert compare(iter(rows), "a", "b").verdict == "no difference shown"  # any iterable of rows
     with pytest.raises(ValueError, match="b must be the fields of one method's rows"):
         compare(rows, "a", 3)

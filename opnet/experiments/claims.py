@@ -16,11 +16,12 @@ The verdict is measured, never written by hand; :func:`claims_markdown` lays the
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from .paper import PAPER_ABLATION, PAPER_ABLATION_SETS, PAPER_TABLE1
 from .plan import PAPER_ROWS
-from .rows import matches
+from .rows import as_rows, matches
 
 __all__ = ["Claim", "Judged", "CLAIMS", "VERDICTS", "judge", "judge_all", "claims_markdown"]
 
@@ -53,6 +54,21 @@ class Claim:
     paper: str = ""
     ours: bool = False
     factor: float = 1.0
+
+    def __post_init__(self):
+        if not (isinstance(self.key, str) and self.key):
+            raise ValueError(f"key must be a non-empty string naming the claim, got {self.key!r}.")
+        for name in ("better", "worse", "where"):
+            if not isinstance(getattr(self, name), Mapping):
+                raise ValueError(
+                    f"{name} must be the fields (a dict) of the rows it names, e.g. {{'entry': 'int+ext'}}, got "
+                    f"{getattr(self, name)!r}."
+                )
+        if not (isinstance(self.metric, str) and self.metric):
+            raise ValueError(f"metric must be the name of a row's metric, e.g. 'd_R', got {self.metric!r}.")
+        factor = self.factor
+        if isinstance(factor, bool) or not (isinstance(factor, (int, float)) and 0 < factor < float("inf")):
+            raise ValueError(f"factor must be a number > 0 (1: a plain comparison), got {factor!r}.")
 
 
 @dataclass(frozen=True)
@@ -231,10 +247,20 @@ CLAIMS = (
 )
 
 
-def judge(claim: Claim, rows) -> Judged:
-    """``claim`` measured on ``rows`` (see the module's docstring)."""
+def judge(claim: Claim | str, rows) -> Judged:
+    """``claim`` (a :class:`Claim`, or the key of one of :data:`CLAIMS`) measured on ``rows`` (see the module's
+    docstring).
+    """
     from .stats import compare
 
+    if isinstance(claim, str):
+        known = {c.key: c for c in CLAIMS}
+        if claim not in known:
+            raise ValueError(f"unknown claim {claim!r}; the claims are {sorted(known)}.")
+        claim = known[claim]
+    if not isinstance(claim, Claim):
+        raise ValueError(f"claim must be a Claim or the key of one of CLAIMS, got {claim!r}.")
+    rows = as_rows(rows)
     mine = [r for r in rows if r.get("table") == claim.table and matches(r, **claim.where)]
     found = [[r for r in mine if matches(r, **fields)] for fields in (claim.better, claim.worse)]
     if any(not f or f[0].get(claim.metric) is None for f in found):
@@ -264,6 +290,7 @@ def judge(claim: Claim, rows) -> Judged:
 
 def judge_all(rows, claims=CLAIMS) -> list[Judged]:
     """Every claim measured on ``rows``, those whose rows are all there."""
+    rows = as_rows(rows)
     return [j for j in (judge(c, rows) for c in claims) if not j.missing]
 
 

@@ -4,9 +4,22 @@ targets and the figures (nothing finds a row by its display name).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 from ..inner_products import channel_names
 
-__all__ = ["row_channels", "matches"]
+__all__ = ["row_channels", "matches", "as_rows"]
+
+
+def as_rows(rows) -> list[dict]:
+    """``rows`` as a list of result rows (any iterable of dicts), or a ``ValueError`` that says what rows are."""
+    try:
+        rows = None if isinstance(rows, (str, bytes, Mapping)) else list(rows)
+    except TypeError:
+        rows = None
+    if rows is None or not all(isinstance(r, Mapping) for r in rows):
+        raise ValueError("rows must be a list of result rows (dicts), e.g. those of opnet.ablation or read_results.")
+    return rows
 
 
 def row_channels(row: dict) -> tuple[str, ...]:

@@ -203,14 +203,9 @@ def compare(
     """
     if not (isinstance(factor, (int, float)) and not isinstance(factor, bool) and factor > 0):
         raise ValueError(f"factor must be a number > 0 (1: a plain comparison), got {factor!r}.")
-    from .rows import matches
+    from .rows import as_rows, matches
 
-    try:
-        rows = [] if isinstance(rows, (str, bytes, Mapping)) else list(rows)
-    except TypeError:
-        rows = []
-    if not rows or not all(isinstance(r, Mapping) for r in rows):
-        raise ValueError("rows must be a list of result rows (dicts), e.g. those of opnet.ablation or read_results.")
+    rows = as_rows(rows)
     a, b = _fields("a", a), _fields("b", b)
 
     def find(fields):
