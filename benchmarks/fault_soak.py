@@ -42,18 +42,20 @@ BUDGET = dict(
 )
 #: Shapes kept of every sequence (sub-collection) of the quick humans.
 PER_SEQUENCE = 2
-#: The latest moment of a kill after its phase is seen, per phase (s): about as long as the phase lasts here.
+#: The latest moment of a kill after its phase is seen, per phase (s): shorter than the phase lasts here (an
+#: evaluation of one entry's rows takes well under a second at this size).
 MAX_DELAY = {
-    "collection build": 3.0,
-    "map computation": 30.0,
+    "collection build": 1.0,
+    "map computation": 20.0,
     "training": 2.0,
-    "evaluation": 10.0,
+    "evaluation": 0.3,
     "results write": 0.0,
 }
 #: How the report names a phase where its key says less than it holds.
-_LABELS = {"evaluation": "evaluation and the rest (loading, refinement)"}
-#: Fields that are timings, or say when and from which commit a value was measured: not values.
-TIMINGS = frozenset({"train_seconds", "seconds_per_shape", "seconds", "wall_seconds", "date", "commit"})
+_LABELS = {"evaluation": "evaluation (of the networks' and baselines' rows)"}
+#: Fields that are timings, or say when a value was measured: not values (the commit stays: code changed between
+#: the two runs would show).
+TIMINGS = frozenset({"train_seconds", "seconds_per_shape", "seconds", "wall_seconds", "date"})
 
 
 def child(out: str, data_root: str) -> None:
@@ -70,7 +72,7 @@ def child(out: str, data_root: str) -> None:
     from opnet.data import generators, mapped
     from opnet.experiments.plan import Budget
 
-    marker, stack = _marker(Path(out)), ["evaluation"]
+    marker, stack = _marker(Path(out)), ["start-up"]
 
     def in_phase(name, fn):
         def wrapper(*args, **kwargs):
@@ -90,6 +92,10 @@ def child(out: str, data_root: str) -> None:
     # a checkpoint after every epoch (it sets no weight: the runs are the same), so that a kill in training resumes
     opnet.train.fit = lambda *args, **kwargs: fit(*args, **{**kwargs, "checkpoint_every": 0})
     reproduce.write_results = in_phase("results write", reproduce.write_results)
+    from opnet.experiments import runner
+
+    runner.evaluate = in_phase("evaluation", runner.evaluate)  # run_entries' calls, by their module's names
+    runner.evaluate_seeds = in_phase("evaluation", runner.evaluate_seeds)
     humans = opnet.data.profile("humans")
 
     def load(preset, root=None, progress=None, **draws):
@@ -99,7 +105,7 @@ def child(out: str, data_root: str) -> None:
 
     opnet.data.PROFILES["humans"] = dataclasses.replace(humans, load=load)
     options = dict(ablation=False, figures=False, applications=False, bodies=False, maps=True, refine=True)
-    _write(marker, "evaluation")
+    _write(marker, "start-up")
     reproduce.reproduce(
         "quick", out, budget=Budget(**BUDGET), device="cpu", progress=False, data_root=data_root, **options
     )
@@ -116,8 +122,8 @@ def _write(path: Path, text: str) -> None:
 
 
 def phase(out: Path) -> str | None:
-    """The phase of the child reproducing into ``out`` (:data:`PHASES`; "evaluation" stands for all the rest:
-    loading, evaluating, refining), ``None`` before it says."""
+    """The phase of the child reproducing into ``out`` (one of :data:`PHASES`, or ``"start-up"`` for all the rest:
+    loading, planning, the baselines' optimisation), ``None`` before it says."""
     try:
         return _marker(out).read_text() or None
     except OSError:
@@ -141,6 +147,16 @@ def _failed(proc: subprocess.Popen, out: Path, what: str) -> RuntimeError:
     return RuntimeError(f"{what} failed (exit {proc.returncode}):\n{tail}")
 
 
+def _state(out: Path, data_root: Path) -> dict:
+    """What a killed run had left on disk: map parts, runs with a ``latest.pt``, rows written."""
+    try:
+        rows = len(json.loads((out / "results.json").read_text())["rows"])
+    except (OSError, ValueError, KeyError, TypeError):
+        rows = 0
+    latest = len(list((out / "runs").glob("*/latest.pt"))) if (out / "runs").is_dir() else 0
+    return dict(map_parts=len(list(data_root.glob("*.part-*"))), runs_with_latest=latest, rows_written=rows)
+
+
 def soak(out: Path, data_root: Path, per_phase: int, max_delay: dict, rng: random.Random) -> list[dict]:
     """Kill the child ``per_phase`` times in each phase, at a moment drawn uniformly within ``max_delay[phase]``
     seconds of the phase's start (as seen), resuming after each, until it ends by itself; the kills."""
@@ -153,15 +169,17 @@ def soak(out: Path, data_root: Path, per_phase: int, max_delay: dict, rng: rando
             now = phase(out)
             if now != seen:
                 seen = now
-                due = now is not None and wanted[now] > 0
+                due = wanted.get(now, 0) > 0
                 deadline = time.perf_counter() + rng.uniform(0.0, max_delay[now]) if due else None
             if deadline is not None and time.perf_counter() >= deadline:
                 os.killpg(proc.pid, signal.SIGKILL)  # the child and its map workers
                 if proc.wait() != -signal.SIGKILL:  # it ended by itself just before
                     break
                 at = phase(out)  # what it was doing when it died
-                wanted[at] -= 1
-                kills.append(dict(phase=at, after_seconds=round(time.perf_counter() - started, 2)))
+                wanted[at] = wanted.get(at, 0) - 1
+                kills.append(
+                    dict(phase=at, after_seconds=round(time.perf_counter() - started, 2), **_state(out, data_root))
+                )
                 break
             time.sleep(0.001 if now == "evaluation" and wanted["results write"] > 0 else 0.05)  # a write is short
         else:
@@ -189,7 +207,7 @@ def comparable(rows: list[dict]) -> list[dict]:
 
 def differences(rows: list[dict], soaked: list[dict]) -> list[dict]:
     """Where :func:`comparable` rows differ: per (entry, split) row of either, each field whose values differ."""
-    key = lambda r: (r.get("entry"), r.get("split"), r.get("method"), r.get("kind"))  # noqa: E731
+    key = lambda r: tuple(r.get(k) for k in ("entry", "split", "method", "kind", "resolution", "maps"))  # noqa: E731
     a, b = ({key(r): r for r in comparable(x)} for x in (rows, soaked))
     out = []
     for k in sorted(set(a) | set(b), key=str):
@@ -217,6 +235,8 @@ def measure(args) -> dict:
 
     result = {"date": time.strftime("%Y-%m-%d"), "cpu_count": os.cpu_count(), "budget": BUDGET}
     result["loadavg_1min_at_start"] = round(os.getloadavg()[0], 2)
+    if args.keep is not None and Path(args.keep).exists() and any(Path(args.keep).iterdir()):
+        raise SystemExit(f"--keep {args.keep} is not empty: give a new folder (a run there would be resumed).")
     with tempfile.TemporaryDirectory() if args.keep is None else contextlib.nullcontext(args.keep) as tmp:
         tmp = Path(tmp)
         tmp.mkdir(parents=True, exist_ok=True)
@@ -239,16 +259,22 @@ def measure(args) -> dict:
 
 def report(r: dict) -> str:
     """The Markdown report of one :func:`measure` result (what the script prints; the docs render the shipped one)."""
-    by_phase = {p: [k["after_seconds"] for k in r["kills"] if k["phase"] == p] for p in PHASES}
+    order = {p: i for i, p in enumerate(PHASES)}
+    kills = sorted(r["kills"], key=lambda k: order.get(k["phase"], len(PHASES)))
     lines = [
         f"A trimmed `reproduce --preset quick` (the quick humans built anew, {PER_SEQUENCE} shapes per sequence, "
         f"computed maps from 2k and 5k meshes, Table 1's networks and the refinement rows; budget "
         f"{', '.join(f'{k}={v}' for k, v in r['budget'].items())}), killed with SIGKILL {len(r['kills'])} times "
-        f"and resumed after each ({load_span(r)}; measured {r['date']}, {r['cpu_count']} cores).",
+        f"and resumed after each ({load_span(r)}; measured {r['date']}, {r['cpu_count']} cores). Each kill, with "
+        "what the killed run had left on disk:",
         "",
-        "| phase | kills | seconds after the (re)start |",
-        "|---|---:|---|",
-        *(f"| {_LABELS.get(p, p)} | {len(t)} | {', '.join(f'{s:.1f}' for s in t)} |" for p, t in by_phase.items()),
+        "| phase | seconds after the (re)start | map parts | runs with a `latest.pt` | rows written |",
+        "|---|---:|---:|---:|---:|",
+        *(
+            f"| {_LABELS.get(k['phase'], k['phase'])} | {k['after_seconds']:.1f} | {k.get('map_parts', '–')} | "
+            f"{k.get('runs_with_latest', '–')} | {k.get('rows_written', '–')} |"
+            for k in kills
+        ),
         "",
         f"Uninterrupted: {r['uninterrupted_seconds']:.0f} s; with the kills and resumes: {r['soak_seconds']:.0f} s. "
         f"The {r['rows']} rows of the two are "

@@ -12,6 +12,8 @@ import numpy as np
 import opnet
 from opnet import evaluate, reproduce, train
 from opnet.data import toy
+from opnet.experiments import claims
+from opnet.experiments.baselines import FUNCCHAR_INT
 from opnet.experiments.report import MAPPED_GROUPS, headline_markdown, row_identity
 from opnet.experiments.steps import DISCRETISATIONS
 
@@ -146,10 +148,12 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, profile_loads, 
         assert all(r["group"] == e.spec.group and r["run"] == "+".join(s.run_name for s in e.runs) for r in mine)
     seeds = sum(len(e.runs) for e in bodies)
     assert seeds > len(bodies)  # an ensemble's seeds: each trained
-    refined = [r for r in t1 if r.get("refined") or r.get("baseline") in ("geometric", "funcchar")]
-    assert len(refined) == 8 + 2 * len(bodies) and {
-        tuple(r["channels"]) for r in refined if r.get("baseline") == "funcchar"
-    } == {reproduce.FUNCCHAR}
+    matching = ("geometric", "funcchar", "funcchar_int")  # the operator-matching baselines
+    refined = [r for r in t1 if r.get("refined") or r.get("baseline") in matching]
+    assert len(refined) == 10 + 2 * len(bodies)
+    for key, channels in (("funcchar", reproduce.FUNCCHAR), ("funcchar_int", FUNCCHAR_INT)):
+        assert {tuple(r["channels"]) for r in refined if r.get("baseline") == key} == {channels}
+    assert not claims.judge("funcchar-offset-helps", saved).missing  # its two rows are there
     for r in refined:  # a refinement's rows carry its network's run fields
         start = plan[r["entry"]].refines
         assert start is None or r["run"] == plan[start].run_fields()["run"]
@@ -213,7 +217,7 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, profile_loads, 
     assert {row_identity(r) for r in merged} == {row_identity(r) for r in saved}
 
     def not_measured_again(r):
-        return r["table"] == "ablation" or r.get("refined") or r.get("baseline") in ("geometric", "funcchar")
+        return r["table"] == "ablation" or r.get("refined") or r.get("baseline") in matching
 
     kept = [r for r in merged if not_measured_again(r)]
     assert kept == [r for r in saved if not_measured_again(r)] and len(kept) == 28 + len(refined)  # as written
