@@ -6,7 +6,8 @@ Rows are found by their structured fields, never by their display name (``method
 - runs (:meth:`opnet.experiments.RunSpec.fields`): ``run``, ``architecture``, ``variant``, ``channels`` (names; a
   comma-joined string in older files), ``depth``, and the spec's ``group`` (``"table1"``, ``"comp"``: trained
   through computed maps, ``"ablation"``);
-- baselines: ``baseline`` (``"nearest_neighbour"``, ``"base_shape"``, ``"geometric"``);
+- baselines: ``baseline`` (``"nearest_neighbour"``, ``"base_shape"``, ``"geometric"``, ``"funcchar"``,
+  ``"funcchar_int"``);
 - a network's output refined by :func:`opnet.reconstruct`: its run's fields (not its ``channels``: those of the
   refinement) and ``refined`` ``True``;
 - the tables: ``table`` (``"table1"``, ``"ablation"``, ``"discretisation"``, ``"analogy"``, ``"interpolation"``).
