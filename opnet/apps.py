@@ -62,8 +62,9 @@ __all__ = [
 
 #: How operators are combined: the paper's multiplicative algebra (eq. 6, ``D_C D_A⁺ D_B``) or linear.
 SCHEMES = ("multiplicative", "linear")
-#: Analogy benchmark kinds: "pose" (a, p) : (a, q) :: (b, p) : (b, q); "body" (a, p) : (b, p) :: (a, q) : (b, q).
-ANALOGY_KINDS = ("pose", "body")
+#: Analogy benchmark kinds: "pose" (a, p) : (a, q) :: (b, p) : (b, q); "body" (a, p) : (b, p) :: (a, q) : (b, q);
+#: "gender" (a♂, p) : (a♀, p) :: (b♂, q) : (b♀, q) (subjects with a gender phenotype: the humans, heads and hands).
+ANALOGY_KINDS = ("pose", "body", "gender")
 #: Interpolation path kinds: "pose" (one subject between two poses of a test sequence), "body" (one pose between
 #: two unseen subjects).
 PATH_KINDS = ("pose", "body")
@@ -335,18 +336,28 @@ def analogy_quadruples(collection, kind: str = "pose", n: int = 100, *, seed: in
     Two unseen subjects ``a ≠ b`` (``test_subjects``) and two poses ``p``, ``q`` of different ``test`` sequences:
 
     - ``kind="pose"`` (pose transfer): ``(a, p) : (a, q) :: (b, p) : X = (b, q)``;
-    - ``kind="body"`` (body-type transfer): ``(a, p) : (b, p) :: (a, q) : X = (b, q)``.
+    - ``kind="body"`` (body-type transfer): ``(a, p) : (b, p) :: (a, q) : X = (b, q)``;
+    - ``kind="gender"`` (gender transfer, the paper's Figs. 10 and 13): ``(a♂, p) : (a♀, p) :: (b♂, q) : X = (b♀, q)``,
+      where ``a♂`` is subject ``a`` with the gender phenotype set to male (0) and ``a♀`` to female (1), the rest of
+      the subject unchanged: ``A`` and ``B`` differ by gender alone, ``C`` varies (another subject, another pose).
 
     The four shapes are generated anew (:func:`opnet.data.generators.generate_shapes`); ``seed`` draws them (each
     kind its own draws, so that the two kinds are independent samples: the linear algebra, ``C + B − A``, would
     give both kinds the same answer).
     """
     from .data.generators import generate_shapes
+    from .data.subjects import PHENOTYPES
 
     if kind not in ANALOGY_KINDS:
         raise ValueError(f"kind must be one of {ANALOGY_KINDS}, got {kind!r}.")
     check_int("n", n)
     subjects, pose_idx, sequences = ground_truth_pool(collection)
+    if kind == "gender" and subjects.shape[1] != len(PHENOTYPES):
+        raise ValueError(
+            f"gender analogies set the subjects' gender phenotype (column {PHENOTYPES.index('gender')} of "
+            f"{PHENOTYPES}); this collection's subjects have {subjects.shape[1]} columns: use the humans, heads or "
+            "hands."
+        )
     if len(subjects) < 2 or len(set(sequences)) < 2:
         raise ValueError(
             f"analogies need two unseen subjects and two test sequences; this collection has "
@@ -360,14 +371,21 @@ def analogy_quadruples(collection, kind: str = "pose", n: int = 100, *, seed: in
         if sequences[u] != sequences[v]:
             a.append(i), b.append(j), p.append(pose_idx[u]), q.append(pose_idx[v])
     controls = collection.params["controls"]
-    phen = np.concatenate([subjects[a], subjects[a], subjects[b], subjects[b]])
-    ctrl = np.concatenate([controls[p], controls[q], controls[p], controls[q]])
-    ap, aq, bp, bq = np.split(generate_shapes(collection, phen, ctrl), 4)
     labels = [
         f"subjects {i}/{j}, poses {collection.subcollection[u]}#{u}/{collection.subcollection[v]}#{v}"
         for i, j, u, v in zip(a, b, p, q)
     ]
     who = dict(labels=labels, phenotypes=np.stack([subjects[a], subjects[b]], axis=1), poses=np.stack([p, q], axis=1))
+    if kind == "gender":
+        g = PHENOTYPES.index("gender")
+        male_a, female_a, male_b, female_b = (subjects[s].copy() for s in (a, a, b, b))
+        male_a[:, g], female_a[:, g], male_b[:, g], female_b[:, g] = 0.0, 1.0, 0.0, 1.0
+        phen = np.concatenate([male_a, female_a, male_b, female_b])
+        ctrl = np.concatenate([controls[p], controls[p], controls[q], controls[q]])
+        return Quadruples(kind, *np.split(generate_shapes(collection, phen, ctrl), 4), **who)
+    phen = np.concatenate([subjects[a], subjects[a], subjects[b], subjects[b]])
+    ctrl = np.concatenate([controls[p], controls[q], controls[p], controls[q]])
+    ap, aq, bp, bq = np.split(generate_shapes(collection, phen, ctrl), 4)
     if kind == "pose":
         return Quadruples(kind, ap, aq, bp, bq, **who)
     return Quadruples(kind, ap, bp, aq, bq, **who)

@@ -50,6 +50,7 @@ __all__ = [
     "predict",
     "operatornet_method",
     "pointnet_method",
+    "sfl_method",
     "nearest_neighbour",
     "OperatorIndex",
     "nearest_neighbour_method",
@@ -274,7 +275,7 @@ def base_shape_method(collection, *, info: dict | None = None) -> Method:
 def geometric_method(
     collection, channels=None, *, max_shapes: int | None = None, info: dict | None = None, **options
 ) -> Method:
-    """The geometric baseline: :func:`opnet.reconstruct` from the base shape (the paper's SfL / FuncChar row),
+    """The geometric baseline: :func:`opnet.reconstruct` from the base shape (the paper's FuncChar kind of row),
     i.e. :func:`refined_method` of :func:`base_shape_method` (its rows' ``d_R_before`` is the base shape's error).
 
     ``options`` go to :func:`opnet.reconstruct` (``steps``, ``smoothness``, ...); ``info``: its rows' fields (default
@@ -289,6 +290,42 @@ def geometric_method(
         info=dict(baseline="geometric") if info is None else info,
         **options,
     )
+
+
+def sfl_method(collection, *, max_shapes: int | None = None, info: dict | None = None, **options) -> Method:
+    """Shape-from-Laplacian (the paper's "SfL" row of Table 1): :func:`opnet.geometric.shape_from_laplacian` from the
+    base shape, given each test shape's *full* cotan Laplacian on the base's triangulation (computed from its true
+    vertices: the paper ran it "with the full basis in both the base shape and the target shape"), not its truncated
+    shape differences.
+
+    It needs the shapes on the base's triangulation in known correspondence: a collection on other faces, or whose
+    operators come from other meshes through maps (:func:`opnet.data.mapped_collection`), is refused. ``options`` go to
+    :func:`~opnet.geometric.shape_from_laplacian` (``metric_steps``, ``embedding_steps``, ``device``); ``info``: its
+    rows' fields (default ``baseline`` ``"sfl"``).
+    """
+    from .geometric import shape_from_laplacian
+    from .spectral import areas_and_cotan_weights
+
+    base = collection.base_basis.mesh
+    if collection.faces.shape != base.faces.shape or not np.array_equal(collection.faces, base.faces):
+        raise ValueError(
+            "Shape-from-Laplacian reads each shape's full Laplacian on the base's triangulation; this collection's "
+            "shapes are on other faces. Use a collection whose shapes share the base's faces."
+        )
+    if "maps" in collection.meta:
+        raise ValueError(
+            f"Shape-from-Laplacian is given each shape's full Laplacian on the base's triangulation, in known "
+            f"correspondence (the paper's full basis on both shapes); this collection's operators come from its "
+            f"shapes' {collection.meta.get('map_resolution')} meshes through {collection.meta['maps']} maps. Evaluate "
+            "it on the collection they were mapped from."
+        )
+
+    def run(idx):
+        masses, weights = areas_and_cotan_weights(collection.vertices[idx].astype(np.float64), base.faces)
+        return shape_from_laplacian(weights, masses, base, progress=False, **options)
+
+    info = dict(baseline="sfl") if info is None else dict(info)
+    return Method("SfL (full Laplacian)", run, info=info, max_shapes=max_shapes)
 
 
 def refined_method(

@@ -20,6 +20,10 @@ from .shape_difference import KINDS
 __all__ = [
     "OperatorNet",
     "PointNetAutoencoder",
+    "PointNetTransformerAutoencoder",
+    "PointNet2Autoencoder",
+    "InputTransform",
+    "farthest_points",
     "build_model",
     "rigid_alignment_loss",
     "kabsch_torch",
@@ -202,7 +206,8 @@ def dense_decoder(in_features: int, hidden: int, n_vertices: int) -> nn.Sequenti
 class PointNetAutoencoder(nn.Module):
     """Coordinates ``(B, n, 3)`` → a latent code ``(B, latent)`` → coordinates ``(B, n, 3)``: the paper's baseline.
 
-    The encoder is PointNet without its spatial transformer (the paper's better variant): a shared per-point
+    The encoder is PointNet without its spatial transformer (the paper's better variant, section 7;
+    :class:`PointNetTransformerAutoencoder` has it): a shared per-point
     MLP ``3 → 64 → 128 → latent`` (ReLU) and a max over the points, so the code does not depend on the order of
     the points. It reads ``n_points`` of the ``n`` vertices, the same ones for every shape (buffer
     ``point_index``, spread over the base shape by :meth:`choose_points`; all vertices when ``n_points`` is
@@ -219,6 +224,9 @@ class PointNetAutoencoder(nn.Module):
     hidden : width of the decoder's two hidden layers (1024, as OperatorNet's).
     """
 
+    #: The name :data:`ARCHITECTURES` gives it, stored in its ``config()``.
+    architecture = "pointnet"
+
     def __init__(self, n_vertices: int, n_points: int | None = None, latent: int = 1024, hidden: int = 1024):
         super().__init__()
         n_points = n_vertices if n_points is None else n_points
@@ -233,6 +241,7 @@ class PointNetAutoencoder(nn.Module):
             nn.Linear(3, 64), nn.ReLU(), nn.Linear(64, 128), nn.ReLU(), nn.Linear(128, latent), nn.ReLU()
         )
         self.decoder = dense_decoder(latent, hidden, n_vertices)
+        self.transform = None  # PointNetTransformerAutoencoder's input transform
 
     def choose_points(self, base_vertices) -> "PointNetAutoencoder":
         """Read the ``n_points`` vertices spread furthest apart on the base shape ``(n, 3)``
@@ -253,7 +262,10 @@ class PointNetAutoencoder(nn.Module):
     def encode(self, vertices: torch.Tensor) -> torch.Tensor:
         """Vertices ``(B, n, 3)`` → codes ``(B, latent)`` (from the ``n_points`` read)."""
         vertices = as_input("vertices", vertices, self, (None, self.n_vertices, 3), f"(B, {self.n_vertices}, 3)")
-        return self.point_mlp(vertices[:, self.point_index]).amax(dim=1)
+        points = vertices[:, self.point_index]
+        if self.transform is not None:
+            points = points @ self.transform(points)
+        return self.point_mlp(points).amax(dim=1)
 
     def decode(self, codes: torch.Tensor) -> torch.Tensor:
         """Codes ``(B, latent)`` → vertices ``(B, n, 3)``."""
@@ -265,9 +277,9 @@ class PointNetAutoencoder(nn.Module):
         return self.decode(self.encode(vertices))
 
     def config(self) -> dict:
-        """The constructor's arguments and ``architecture="pointnet"`` (stored in checkpoints; :func:`build_model`)."""
+        """The constructor's arguments and its :attr:`architecture` (stored in checkpoints; :func:`build_model`)."""
         return dict(
-            architecture="pointnet",
+            architecture=self.architecture,
             n_vertices=self.n_vertices,
             n_points=self.n_points,
             latent=self.latent,
@@ -275,8 +287,120 @@ class PointNetAutoencoder(nn.Module):
         )
 
 
+class InputTransform(nn.Module):
+    """PointNet's input transform (its spatial transformer, the T-Net of Qi et al. 2017): a ``3 × 3`` matrix
+    ``(B, 3, 3)`` predicted from points ``(B, p, 3)`` by a per-point MLP ``3 → 64 → 128 → 1024`` (ReLU), a max over
+    the points and a dense head ``1024 → 512 → 256 → 9``; its last layer starts at zero, so the transform starts
+    as the identity. The points are multiplied by it, ``points @ T``, before the encoder reads them.
+    """
+
+    def __init__(self, width: int = 1024):
+        super().__init__()
+        self.point_mlp = nn.Sequential(
+            nn.Linear(3, 64), nn.ReLU(), nn.Linear(64, 128), nn.ReLU(), nn.Linear(128, width), nn.ReLU()
+        )
+        self.head = nn.Sequential(nn.Linear(width, 512), nn.ReLU(), nn.Linear(512, 256), nn.ReLU(), nn.Linear(256, 9))
+        nn.init.zeros_(self.head[-1].weight)
+        nn.init.zeros_(self.head[-1].bias)
+
+    def forward(self, points: torch.Tensor) -> torch.Tensor:
+        """The transforms ``(B, 3, 3)`` of point sets ``(B, p, 3)``."""
+        eye = torch.eye(3, dtype=points.dtype, device=points.device)
+        return eye + self.head(self.point_mlp(points).amax(dim=1)).view(-1, 3, 3)
+
+
+class PointNetTransformerAutoencoder(PointNetAutoencoder):
+    """:class:`PointNetAutoencoder` with PointNet's input transform (:class:`InputTransform`): the paper's other
+    PointNet autoencoder (section 7: "one autoencoder with spatial transformers and one without"; it kept the one
+    without, which did better). The feature transform (``64 × 64``) of the classification network and its
+    orthogonality penalty are left out: the loss stays eq. 9 for every network.
+    """
+
+    architecture = "pointnet_stn"
+
+    def __init__(self, n_vertices: int, n_points: int | None = None, latent: int = 1024, hidden: int = 1024):
+        super().__init__(n_vertices, n_points, latent, hidden)
+        self.transform = InputTransform()
+
+
+class PointNet2Autoencoder(PointNetAutoencoder):
+    """A PointNet++ encoder (Qi et al. 2017, "PointNet++", single-scale grouping) with OperatorNet's dense decoder:
+    the autoencoder of the paper's Appendix (Fig. 18).
+
+    The encoder reads the ``n_points`` vertices of :meth:`~PointNetAutoencoder.choose_points` and abstracts them
+    twice: farthest-point sampling picks ``128`` then ``32`` centres on each shape, each centre groups its ``32``
+    nearest points within a radius (``0.1`` then ``0.2`` of the base shape's bounding-box diagonal; points beyond it
+    are replaced by the nearest one, as the reference ball query pads its groups), and a shared MLP of the group's
+    offsets from its centre (and, at the second level, their features) ``→ 64 → 64 → 128`` then ``→ 128 → 128 →
+    256``, maxed over the group, gives the centre's feature. A last MLP ``→ 256 → 512 → latent`` over the 32 centres
+    (their positions and features), maxed, is the code. The decoder is the same dense decoder.
+    """
+
+    architecture = "pointnet2"
+    #: (centres, group size, radius as a fraction of the base's bounding-box diagonal) of the two abstractions.
+    LEVELS = ((128, 32, 0.1), (32, 32, 0.2))
+
+    def __init__(self, n_vertices: int, n_points: int | None = None, latent: int = 1024, hidden: int = 1024):
+        super().__init__(n_vertices, n_points, latent, hidden)
+        del self.point_mlp
+
+        def mlp(*widths):
+            layers = []
+            for a, b in zip(widths[:-1], widths[1:]):
+                layers += [nn.Linear(a, b), nn.ReLU()]
+            return nn.Sequential(*layers)
+
+        self.levels = nn.ModuleList([mlp(3, 64, 64, 128), mlp(128 + 3, 128, 128, 256)])
+        self.global_mlp = mlp(256 + 3, 256, 512, latent)
+        self.register_buffer("radius", torch.tensor([r for *_, r in self.LEVELS], dtype=torch.float32))
+
+    def choose_points(self, base_vertices) -> "PointNet2Autoencoder":
+        """:meth:`PointNetAutoencoder.choose_points`, and the grouping radii from the base's bounding-box diagonal."""
+        super().choose_points(base_vertices)
+        v = np.asarray(base_vertices, dtype=np.float64)
+        diagonal = float(np.linalg.norm(v.max(0) - v.min(0)))
+        self.radius.copy_(torch.tensor([diagonal * r for *_, r in self.LEVELS], dtype=self.radius.dtype))
+        return self
+
+    def encode(self, vertices: torch.Tensor) -> torch.Tensor:
+        vertices = as_input("vertices", vertices, self, (None, self.n_vertices, 3), f"(B, {self.n_vertices}, 3)")
+        xyz, features = vertices[:, self.point_index], None
+        for (centres, group, _), radius, level in zip(self.LEVELS, self.radius, self.levels):
+            centres = min(centres, xyz.shape[1])
+            centre = torch.gather(xyz, 1, farthest_points(xyz, centres)[..., None].expand(-1, -1, 3))  # (B, m, 3)
+            distance = torch.cdist(centre, xyz)  # (B, m, p)
+            near, idx = distance.topk(min(group, xyz.shape[1]), dim=-1, largest=False)  # nearest first
+            idx = torch.where(near <= radius, idx, idx[..., :1])  # beyond the radius: the nearest point again
+            b = torch.arange(len(xyz), device=xyz.device)[:, None, None]
+            grouped = xyz[b, idx] - centre[:, :, None]  # (B, m, g, 3): offsets from the centre
+            if features is not None:
+                grouped = torch.cat([grouped, features[b, idx]], dim=-1)
+            xyz, features = centre, level(grouped).amax(dim=2)  # (B, m, 3), (B, m, width)
+        return self.global_mlp(torch.cat([xyz, features], dim=-1)).amax(dim=1)
+
+
+def farthest_points(points: torch.Tensor, m: int) -> torch.Tensor:
+    """Farthest-point sampling: indices ``(B, m)`` of ``m`` of the points ``(B, p, 3)`` of each set, starting from its
+    first point, each next one the point farthest from those chosen (PointNet++'s sampling of centres).
+    """
+    B, p, _ = points.shape
+    chosen = torch.zeros(B, m, dtype=torch.long, device=points.device)
+    nearest = torch.full((B, p), float("inf"), dtype=points.dtype, device=points.device)
+    last = points[:, 0]
+    for i in range(1, m):
+        nearest = torch.minimum(nearest, ((points - last[:, None]) ** 2).sum(-1))
+        chosen[:, i] = nearest.argmax(dim=1)
+        last = points[torch.arange(B, device=points.device), chosen[:, i]]
+    return chosen
+
+
 #: The networks the trainer knows, by the name stored in a checkpoint's config (``architecture``), and what they read.
-ARCHITECTURES = {"operatornet": (OperatorNet, "operators"), "pointnet": (PointNetAutoencoder, "vertices")}
+ARCHITECTURES = {
+    "operatornet": (OperatorNet, "operators"),
+    "pointnet": (PointNetAutoencoder, "vertices"),
+    "pointnet_stn": (PointNetTransformerAutoencoder, "vertices"),
+    "pointnet2": (PointNet2Autoencoder, "vertices"),
+}
 
 
 def build_model(config: dict) -> nn.Module:

@@ -31,7 +31,7 @@ import numpy as np
 
 from . import __version__
 from ._files import writer_lock
-from .apps import ANALOGY_KINDS, PATH_KINDS
+from .apps import PATH_KINDS
 from .experiments.baselines import FUNCCHAR, REFINE
 from .experiments.config import ReproduceConfig
 from .experiments.figures import (
@@ -47,6 +47,7 @@ from .experiments.plan import (
     ABLATION_SETS,
     BUDGETS,
     MORE_BODIES,
+    POINT_VARIANTS,
     REFINE_SETS,
     TRAINING_FIELDS,
     Budget,
@@ -61,6 +62,7 @@ from .experiments.report import ablation_table, merge_results, read_results, res
 from .experiments.runner import Workspace, run_entries
 from .experiments.spec import RunSpec
 from .experiments.steps import (
+    analogy_kinds,
     application_methods,
     applications_rows,
     discretisation_indices,
@@ -228,9 +230,10 @@ def _train_side_by_side(config: ReproduceConfig, ws: Workspace, entries) -> None
     todo = [(spec, coll) for spec, coll in todo if not _finished(spec.run_dir(ws.runs_root, coll), spec.epochs)]
     if not todo:
         return
-    threads = max(1, usable_cores() // config.jobs)
+    threads = max(1, usable_cores() // config.jobs)  # a training's share, however many are left (its numbers keep)
     task = joblib.delayed(_train_one)
-    parallel = joblib.Parallel(n_jobs=min(config.jobs, len(todo)), return_as="generator_unordered")
+    # config.jobs processes even for one training left: n_jobs=1 would run it in this process (its threads, its watch)
+    parallel = joblib.Parallel(n_jobs=config.jobs, return_as="generator_unordered")
     bar = tqdm(
         total=len(todo), desc=f"training {config.jobs} side by side", unit="network", disable=config.progress is False
     )
@@ -295,14 +298,16 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
         settings = dict(fields=fields, shapes=ws.budget.discretisation_shapes)
         drawn = ["discretisation"]
     else:
-        keys = ("int+ext", "ours", "pointnet")
+        keys = ("int+ext", "ours", "pointnet", *(k for k in POINT_VARIANTS if k in done))
         seeds = max(len(done[k].runs) if done[k].entry.replicated else 1 for k in keys)
         per_seed = [{k: done[k].runs[i if done[k].entry.replicated else 0] for k in keys} for i in range(seeds)]
         runs = [r for one in per_seed for r in one.values()]
         settings = dict(refine=refine, budget=[ws.budget.analogies, ws.budget.paths, ws.budget.apps_refine_shapes])
         settings["refine_steps"] = ws.budget.refine_steps if refine else None
         drawn = [
-            f"{t}_{kind}" for t, kinds in (("analogy", ANALOGY_KINDS), ("interpolation", PATH_KINDS)) for kind in kinds
+            f"{t}_{kind}"
+            for t, kinds in (("analogy", analogy_kinds(ws.coll)), ("interpolation", PATH_KINDS))
+            for kind in kinds
         ]
     inputs = inputs_digest(
         step=key, checkpoints=[r.checkpoint for r in runs], data=ws.fingerprint(ws.coll), extra=extra, **settings

@@ -88,7 +88,7 @@ def test_pointnet_trains_checkpoints_and_resumes_like_operatornet(coll, tmp_path
     with pytest.raises(ValueError, match="n_points is the PointNet"):
         train.fit(coll, n_points=64, **FAST)
     with pytest.raises(ValueError, match="architecture must be one of"):
-        train.fit(coll, architecture="pointnet2", **FAST)
+        train.fit(coll, architecture="pointnet3", **FAST)
     with pytest.raises(train.CheckpointError, match="holds a pointnet run, not a operatornet one"):
         train.fit(coll, epochs=4, run_dir=tmp_path / "pn", **FAST)  # an OperatorNet into PointNet's run directory
     train.fit(coll, epochs=1, run_dir=tmp_path / "op", **FAST)
@@ -311,6 +311,26 @@ def test_quadruples_put_subjects_and_poses_in_their_roles(humans):
     np.testing.assert_array_equal(apps.analogy_quadruples(humans, "pose", 6).X, pose.X)  # seeded
 
 
+def test_gender_quadruples_change_the_gender_alone(humans):
+    """Gender transfer (Figs. 10 and 13): A and B are one subject in one pose, male and female; C is another subject,
+    male, in another pose; X is C's subject female, in C's pose; the rest of each subject is an unseen one's."""
+    from opnet.data.subjects import PHENOTYPES
+
+    Q = apps.analogy_quadruples(humans, "gender", 4)
+    controls = humans.params["controls"]
+    g = PHENOTYPES.index("gender")
+    unseen = humans.params["phenotypes"][humans.indices("test_subjects")]
+    for role, (s, p, gender) in dict(A=(0, 0, 0.0), B=(0, 0, 1.0), C=(1, 1, 0.0), X=(1, 1, 1.0)).items():
+        subject = Q.phenotypes[:, s].copy()
+        assert all(np.any(np.all(np.isclose(unseen, v), axis=1)) for v in subject)
+        subject[:, g] = gender
+        again = generators.generate_shapes(humans, subject, controls[Q.poses[:, p]])
+        np.testing.assert_allclose(getattr(Q, role), again, atol=1e-9, err_msg=role)
+    assert np.all(opnet.d_R(Q.A, Q.B) > 0)  # the gender moves the shape
+    with pytest.raises(ValueError, match="kind must be one of"):
+        apps.analogy_quadruples(humans, "age", 2)
+
+
 def test_pose_paths_move_one_unseen_subject_between_test_poses(humans):
     from opnet.metrics import d_E
 
@@ -372,3 +392,31 @@ def test_benchmarks_rows(humans):
     row = apps.analogy_benchmark(humans, [alg], Q, progress=False)[0]
     assert row["n"] == 3 and row["d_R_direct"] < 1e-20 and row["d_R"] > 0
     assert {"d_R", "d_V", "d_E", "d_R_median", "kind", "scheme"} <= set(row)
+
+
+def test_the_other_point_set_autoencoders_train_and_read_their_points(coll, tmp_path):
+    """The paper's other PointNet (with its input transform, which starts as the identity) and the PointNet++
+    autoencoder (Fig. 18) train like the PointNet AE, and are loaded back by their checkpoints' architecture."""
+    from opnet.model import PointNet2Autoencoder, PointNetAutoencoder, PointNetTransformerAutoencoder, farthest_points
+
+    torch.manual_seed(0)
+    plain = PointNetAutoencoder(coll.vertices.shape[1], 64, hidden=16)
+    torch.manual_seed(0)
+    stn = PointNetTransformerAutoencoder(coll.vertices.shape[1], 64, hidden=16)
+    x = torch.as_tensor(coll.vertices[:3], dtype=torch.float32)
+    assert torch.equal(plain.encode(x), stn.encode(x))  # the same weights; the transform starts as the identity
+    points = torch.rand(2, 50, 3, generator=torch.Generator().manual_seed(2))
+    idx = farthest_points(points, 10)
+    assert idx[:, 0].eq(0).all() and all(len(set(i.tolist())) == 10 for i in idx)  # distinct, from the first point
+    chosen = points[0, idx[0]]  # each next point is the one farthest from those before it
+    for i in range(1, 10):
+        nearest = torch.cdist(points[0], chosen[:i]).amin(1)
+        assert nearest[idx[0, i]] == nearest.max()
+    for arch, cls in (("pointnet_stn", PointNetTransformerAutoencoder), ("pointnet2", PointNet2Autoencoder)):
+        net, hist = train.fit(coll, architecture=arch, epochs=3, run_dir=tmp_path / arch, **FAST)
+        assert type(net) is cls and hist[-1]["train_loss"] < hist[0]["train_loss"]
+        loaded = train.load_model(tmp_path / arch)
+        assert type(loaded) is cls and torch.equal(loaded.encode(x), net.encode(x))
+    R = torch.linalg.qr(torch.randn(3, 3, generator=torch.Generator().manual_seed(1)))[0]
+    stn = train.load_model(tmp_path / "pointnet_stn")
+    assert not torch.allclose(stn.transform(x @ R), stn.transform(x))  # trained, it reads the points' orientation

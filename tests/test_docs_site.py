@@ -29,6 +29,8 @@ RESULT_PAGES = {
     "extrinsic": "results",
     "offset_channels": "inner_products",
     "generalisation": "results",
+    "fault_soak": "data",
+    "cluster": "data",
 }
 REMOTE_ASSET = re.compile(r"<(?:script|link|img)\b[^>]*\b(?:src|href)=\"(?:https?:)?//[^\"]+\"")
 

@@ -62,6 +62,18 @@ def test_rows_hold_each_method_and_test_set_with_the_paper_metrics(coll):
     assert base["n_shapes"] == 4 and base["preset"] == "tiny"
 
 
+def test_sfl_recovers_edge_lengths_from_the_full_laplacian(coll):
+    """Shape-from-Laplacian is given each shape's full Laplacian: its edge lengths come back (d_E far below the base
+    shape's), its rows carry baseline "sfl", and a collection on other faces is refused."""
+    sfl = evaluate.sfl_method(coll, max_shapes=2)
+    rows = evaluate.evaluate(coll, [sfl, evaluate.base_shape_method(coll)], test_sets=("test",))
+    assert [r["baseline"] for r in rows] == ["sfl", "base_shape"] and rows[0]["n_shapes"] == 2
+    assert rows[0]["d_E"] < 0.05 * rows[1]["d_E"], rows
+    other = dataclasses.replace(coll, faces=coll.faces[:, ::-1].copy())
+    with pytest.raises(ValueError, match="shapes are on other faces"):
+        evaluate.sfl_method(other)
+
+
 def test_d_V_is_nan_on_open_meshes():
     base = toy.capsule("quick")
     keep = np.flatnonzero(base.vertices[base.faces].mean(1)[:, 2] < 1.0)  # cut off a cap
@@ -148,12 +160,13 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, profile_loads, 
         assert all(r["group"] == e.spec.group and r["run"] == "+".join(s.run_name for s in e.runs) for r in mine)
     seeds = sum(len(e.runs) for e in bodies)
     assert seeds > len(bodies)  # an ensemble's seeds: each trained
-    matching = ("geometric", "funcchar", "funcchar_int")  # the operator-matching baselines
+    matching = ("geometric", "funcchar", "funcchar_int", "sfl")  # the geometric baselines, on a few shapes
     refined = [r for r in t1 if r.get("refined") or r.get("baseline") in matching]
-    assert len(refined) == 10 + 2 * len(bodies)
+    assert len(refined) == 12 + 2 * len(bodies)
     for key, channels in (("funcchar", reproduce.FUNCCHAR), ("funcchar_int", FUNCCHAR_INT)):
         assert {tuple(r["channels"]) for r in refined if r.get("baseline") == key} == {channels}
-    assert not claims.judge("funcchar-offset-helps", saved).missing  # its two rows are there
+    for claim in ("funcchar-offset-helps", "sfl-best-d_E", "operatornet-beats-sfl"):
+        assert not claims.judge(claim, saved).missing, claim  # its two rows are there
     for r in refined:  # a refinement's rows carry its network's run fields
         start = plan[r["entry"]].refines
         assert start is None or r["run"] == plan[start].run_fields()["run"]
@@ -253,10 +266,13 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_lo
         "OperatorNet ours (mult.)",
         "OperatorNet (mult.) + refinement",
         "PointNet AE",
+        "PointNet AE (transformer)",
+        "PointNet++ AE",
         "Nearest neighbour",
     ]
     ana = [r for r in rows if r["table"] == "analogy"]
-    assert [(r["method"], r["kind"]) for r in ana] == [(m, k) for m in names for k in ("pose", "body")]
+    kinds = ("pose", "body", "gender")  # the humans' profile names the gender transfer too
+    assert [(r["method"], r["kind"]) for r in ana] == [(m, k) for m in names for k in kinds]
     assert all(r["n"] == (4 if "refinement" in r["method"] else 5) and np.isfinite(r["d_R"]) for r in ana)
     itp = [r for r in rows if r["table"] == "interpolation"]
     assert [(r["method"], r["kind"]) for r in itp] == [
@@ -264,7 +280,7 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_lo
     ]
     md = (tmp_path / "results.md").read_text()
     assert "## Applications" in md and "PointNet AE / OperatorNet" in md and "smoothness" in md
-    for name in ("interpolation_pose", "interpolation_body", "analogy_pose", "analogy_body"):
+    for name in ("interpolation_pose", "interpolation_body", "analogy_pose", "analogy_body", "analogy_gender"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     assert all(np.isfinite(r["d_R_before"]) for r in ana if "refinement" in r["method"])
     latest = pointnet / "latest.pt"
@@ -302,13 +318,14 @@ def test_reproduce_with_seeds_gives_the_applications_intervals_and_judges_their_
     options = dict(budget=budget, device="cpu", progress=False, ablation=False, maps=False, bodies=False)
     rows = reproduce.reproduce("quick", tmp_path, seeds=2, refine=False, figures=False, **options)
     apps = [r for r in rows if r["table"] in ("analogy", "interpolation") and r.get("run") is not None]
-    assert apps and all(r["seeds"] == [0, 1] and len(r["provenance"]["runs"]) == 6 for r in apps)
+    networks = ("int+ext", "ours", "pointnet", *reproduce.POINT_VARIANTS)  # the applications' trained methods
+    assert apps and all(r["seeds"] == [0, 1] and len(r["provenance"]["runs"]) == 2 * len(networks) for r in apps)
     ana = next(r for r in apps if r["table"] == "analogy" and r["method"] == "PointNet AE" and r["kind"] == "pose")
     assert np.shape(ana["d_R_shapes"]) == (2, 4) and ana["d_R_low"] <= ana["d_R"] <= ana["d_R_high"]
     itp = next(r for r in apps if r["table"] == "interpolation" and r["method"] == "OperatorNet (linear)")
     assert np.shape(itp["smoothness_shapes"]) == (2, 2) and itp["smoothness_seeds"] is not None
     nn = [r for r in rows if r["table"] == "analogy" and r.get("baseline") == "nearest_neighbour"]
-    assert len(nn) == 2 and "seeds" not in nn[0]  # a baseline is the same in every seed: one row
+    assert len(nn) == 3 and "seeds" not in nn[0]  # a baseline is the same in every seed: one row per kind
     judged = {j.claim.key: j for j in claims.judge_all(rows, claims.CLAIMS)}
     assert judged["analogy-pose-below-pointnet"].comparison is not None  # measured, with its interval
     smooth = judged["interpolation-body-smoother-than-the linear algebra"]
@@ -396,6 +413,8 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_
         reproduce.discretisation_figure(comp, {"net": None}, shapes=0)
     with pytest.raises(ValueError, match="maps='computed'"):
         reproduce.discretisation_figure(few, {"net": None})
+    with pytest.raises(ValueError, match="from its shapes' 2k meshes through computed maps"):
+        evaluate.sfl_method(comp)  # SfL reads the full Laplacian in known correspondence
 
 
 def test_unseen_species_are_the_whole_species_held_out_and_only_species_collections_have_them(coll):

@@ -4,10 +4,12 @@ that generate the commands' options."""
 
 import dataclasses
 import json
+import shutil
 import sys
 
 import numpy as np
 import pytest
+import torch
 
 import opnet
 from opnet import reproduce
@@ -422,6 +424,12 @@ def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules,
     assert not list((tmp_path / "two" / "runs").glob("ablation-A+E+C-d1-*"))
     name = {e.key: e.name for e in reproduce.plan_for(reproduce.ReproduceConfig(**options)).entries}
     assert all(r["method"] == name[r["entry"]] for r in one + two)  # one training, each entry's rows its own name
+    # one training left: it too runs in another process, and this process keeps its thread count
+    shutil.rmtree(next((tmp_path / "two" / "runs").glob("table1-A+E+C-d1-*")))
+    threads = torch.get_num_threads()
+    again = reproduce.reproduce("quick", tmp_path / "two", jobs=2, **options)
+    assert torch.get_num_threads() == threads
+    assert sorted(map(key, again)) == sorted(map(key, two))
 
 
 def test_a_second_reproduction_into_one_folder_stops_at_once(tmp_path):

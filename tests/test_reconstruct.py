@@ -163,3 +163,86 @@ def test_truncated_operators_are_exact_and_coarse_to_fine_runs(base_basis, probl
     for bad in ((20, 10), (0,), (30,), (10.5,)):
         with pytest.raises(ValueError, match="coarse_to_fine"):
             reconstruct(ops, base_basis, coarse_to_fine=bad, progress=False)
+
+
+def _sphere_and_small_deformation():
+    import trimesh
+
+    s = trimesh.creation.icosphere(2)
+    base = opnet.Mesh(s.vertices, s.faces)
+    v = base.vertices
+    return base, v * np.array([1.02, 0.99, 1.0]) + 0.02 * np.sin(3 * v[:, [1]]) * np.array([0.0, 0.0, 1.0])
+
+
+def test_the_laplacian_of_edge_lengths_is_that_of_the_vertices():
+    """lengths_laplacian (intrinsic: Heron and the law of cosines) agrees with the vertices' cotan Laplacian."""
+    from opnet.geometric import lengths_laplacian
+    from opnet.mesh import unique_edges
+    from opnet.spectral import areas_and_cotan_weights
+
+    base, target = _sphere_and_small_deformation()
+    X = np.stack([base.vertices, target])
+    e = unique_edges(base.faces)
+    masses, weights = lengths_laplacian(torch.tensor(((X[:, e[:, 0]] - X[:, e[:, 1]]) ** 2).sum(-1)), base.faces)
+    a, w = areas_and_cotan_weights(X, base.faces)
+    assert np.allclose(masses.numpy(), a, rtol=1e-12, atol=0) and np.allclose(
+        weights.numpy(), w, rtol=1e-10, atol=1e-14
+    )
+    # lengths that break a triangle inequality have no triangle: NaN, which the line search rejects
+    bad = torch.tensor(((X[0, e[:, 0]] - X[0, e[:, 1]]) ** 2).sum(-1))
+    bad[0] = 100.0
+    assert torch.isnan(lengths_laplacian(bad, base.faces)[1]).any()
+
+
+def test_shape_from_laplacian_recovers_a_small_deformation_up_to_a_rigid_motion():
+    """Given the target's full Laplacian (its cotan weights and masses), SfL finds the target from the base, up to a
+    rigid motion: the input is intrinsic, so a moved target gives the same result."""
+    from opnet.geometric import shape_from_laplacian
+    from opnet.spectral import areas_and_cotan_weights
+
+    base, target = _sphere_and_small_deformation()
+    R = np.linalg.qr(np.random.default_rng(0).normal(size=(3, 3)))[0]
+    targets = np.stack([target, target @ R.T + 0.5])
+    masses, weights = areas_and_cotan_weights(targets, base.faces)
+    X = shape_from_laplacian(weights, masses, base, progress=False)
+    assert X.shape == targets.shape and X.dtype == np.float64
+    before = opnet.d_R(targets, np.broadcast_to(base.vertices, targets.shape))
+    assert np.all(opnet.d_R(targets, X) < 1e-10 * before), (opnet.d_R(targets, X), before)
+    assert np.allclose(X[0], X[1], atol=1e-9)  # the same Laplacian, the same shape
+    assert np.all(opnet.d_E(targets, X, base.faces) < 1e-8)
+
+
+def test_shape_from_laplacian_refuses_what_it_cannot_use():
+    from opnet.geometric import shape_from_laplacian
+    from opnet.spectral import areas_and_cotan_weights
+
+    base, target = _sphere_and_small_deformation()
+    masses, weights = areas_and_cotan_weights(target, base.faces)
+    with pytest.raises(ValueError, match="one cotan weight per edge of the base's triangulation"):
+        shape_from_laplacian(weights[:-1], masses, base)
+    with pytest.raises(ValueError, match="one lumped mass per base vertex"):
+        shape_from_laplacian(weights, masses[:-1], base)
+    with pytest.raises(ValueError, match="masses finite and positive"):
+        shape_from_laplacian(weights, -masses, base)
+    with pytest.raises(TypeError, match="opnet.Mesh or opnet.Eigenbasis"):
+        shape_from_laplacian(weights, masses, base.vertices)
+    with pytest.raises(ValueError, match="metric_steps must be a non-negative integer"):
+        shape_from_laplacian(weights, masses, base, metric_steps=-1)
+
+
+def test_the_jacobian_of_the_laplacian_of_lengths_is_its_derivative():
+    """lengths_laplacian_jacobian (closed form) agrees with torch's derivative of lengths_laplacian."""
+    from opnet.geometric import lengths_laplacian, lengths_laplacian_jacobian
+    from opnet.mesh import unique_edges
+
+    base, target = _sphere_and_small_deformation()
+    e = unique_edges(base.faces)
+    s = ((target[e[:, 0]] - target[e[:, 1]]) ** 2).sum(-1)
+    J = lengths_laplacian_jacobian(s, base.faces, e, len(target)).toarray()
+
+    def stacked(x):
+        masses, weights = lengths_laplacian(x, base.faces)
+        return torch.cat([weights, masses])
+
+    dense = torch.autograd.functional.jacobian(stacked, torch.tensor(s)).numpy()
+    assert J.shape == dense.shape and np.abs(J - dense).max() < 1e-9 * np.abs(dense).max()

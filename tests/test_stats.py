@@ -118,3 +118,28 @@ def test_a_factor_compares_with_a_multiple_of_the_other_method():
     assert stats.compare(rows, a, b, factor=2.0).verdict == "b better"
     with pytest.raises(ValueError, match="factor must be a number > 0"):
         stats.compare(rows, a, b, factor=0)
+
+
+def test_a_baseline_measured_on_a_few_shapes_is_paired_on_those():
+    """A slow baseline (SfL, FuncChar) measures a few of the test shapes: it is compared with a network on those, seed
+    by seed, and the means are those of the shared shapes; rows that share no shape are refused."""
+    rng = np.random.default_rng(4)
+    err = rng.gamma(4.0, 1.0, (3, 40))
+    few = [3, 17, 29, 35]
+    rows = [
+        dict(
+            table="table1", split="test", method="net", shapes=list(range(40)), seeds=[0, 1, 2], d_R_shapes=err.tolist()
+        ),
+        dict(table="table1", split="test", method="sfl", baseline="sfl", shapes=few, d_R_shapes=[[50.0] * 4]),
+        dict(table="table1", split="test", method="far", baseline="far", shapes=[40, 41], d_R_shapes=[[1.0, 1.0]]),
+    ]
+    c = stats.compare(rows, dict(method="net"), dict(method="sfl"))
+    assert c.verdict == "a better" and c.difference.n_shapes == 4
+    np.testing.assert_allclose(c.difference.mean, np.mean(err[:, few] - 50.0))
+    assert c.a_mean == pytest.approx(err[:, few].mean()) and c.b_mean == 50.0
+    # the sets' order does not matter
+    np.testing.assert_allclose(
+        stats.compare(rows, dict(method="sfl"), dict(method="net")).difference.mean, 50.0 - err[:, few].mean()
+    )
+    with pytest.raises(ValueError, match="share no shape"):
+        stats.compare(rows, dict(method="net"), dict(method="far"))

@@ -94,11 +94,18 @@ train.fit(
 
 @pytest.mark.slow
 def test_a_run_killed_with_sigkill_resumes_to_the_uninterrupted_result(coll, tmp_path):
+    """A training SIGKILLed mid-run and resumed by a new process ends as one never interrupted. Every training runs
+    in a fresh process, as a killed one is resumed: this test's own process, after the tests before it, may round
+    differently in the last bit (a CI run saw 1e-9 apart at epoch 1 against a process of its own)."""
     manifest = save_collection(coll, tmp_path / "data" / "tiny")
     epochs = 150
-    ref, hist_ref = train.fit(coll, epochs=epochs, run_dir=tmp_path / "ref", **FAST)
+
+    def train_in_a_process(run):
+        return subprocess.Popen([sys.executable, "-c", _KILLED_RUN, str(manifest), str(run), str(epochs)])
+
+    assert train_in_a_process(tmp_path / "ref").wait() == 0
     run = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-c", _KILLED_RUN, str(manifest), str(run), str(epochs)])
+    proc = train_in_a_process(run)
     deadline = time.time() + 120
     while time.time() < deadline and not (run / "latest.pt").exists():  # kill it in the middle of its epochs
         time.sleep(0.05)
@@ -108,10 +115,12 @@ def test_a_run_killed_with_sigkill_resumes_to_the_uninterrupted_result(coll, tmp
     done = train.read_history(run)
     assert 0 < len(done) < epochs, "the run finished before it could be killed; the test needs a slower run"
     (run / ".latest.pt.tmp-99999999").write_bytes(b"partial")  # what a kill during a write leaves
-    resumed, hist = train.fit(coll, epochs=epochs, run_dir=run, **FAST)
+    assert train_in_a_process(run).wait() == 0
     assert not list(run.glob(".*.tmp-*"))
-    assert _same_history(hist_ref, hist)
-    assert all(torch.equal(a, b) for a, b in zip(_weights(ref).values(), _weights(resumed).values()))
+    assert _same_history(train.read_history(tmp_path / "ref"), train.read_history(run))
+    for name in ("best.pt", "latest.pt"):  # the best epoch's weights and the last one's
+        ref, resumed = (torch.load(f / name, weights_only=True)["model"] for f in (tmp_path / "ref", run))
+        assert ref.keys() == resumed.keys() and all(torch.equal(ref[k], resumed[k]) for k in ref), name
 
 
 def test_a_second_writer_of_a_run_directory_stops_at_once_and_a_killed_one_leaves_no_lock(coll, tmp_path):

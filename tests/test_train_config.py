@@ -68,7 +68,7 @@ def test_every_field_but_the_unexposed_has_its_flag():
     assert {s for a in actions.values() for s in a.option_strings} == set(FLAGS.values()) | OTHERS | {"-h", "--help"}
     assert actions["depth"].choices == [1, 2, 3, 4]
     assert actions["variant"].choices == ["paper", "ours"] and actions["schedule"].choices == ["constant", "onecycle"]
-    assert actions["architecture"].choices == ["operatornet", "pointnet"]
+    assert actions["architecture"].choices == ["operatornet", "pointnet", "pointnet_stn", "pointnet2"]
 
 
 def test_fields_are_fits_arguments_with_its_defaults():

@@ -22,6 +22,7 @@ __all__ = ["Profile", "PROFILES", "register_profile", "unregister_profile", "pro
 _HUMAN_ANALOGIES = {
     "pose": "pose transfer (a,p):(a,q)::(b,p):(b,q)",
     "body": "body transfer (a,p):(b,p)::(a,q):(b,q)",
+    "gender": "gender transfer (a♂,p):(a♀,p)::(b♂,q):(b♀,q)",
 }
 _HUMAN_PATHS = {"pose": "one subject, pose to pose", "body": "one pose, subject to subject"}
 
@@ -40,7 +41,7 @@ class Profile:
     more_bodies : its training shapes can be drawn with more bodies or poses (``load_collection(bodies=, poses=)``).
     applications : its generator gives ground truth for the analogy and interpolation benchmarks.
     analogy_kinds, interpolation_kinds : the benchmarks' kinds (:data:`opnet.apps.ANALOGY_KINDS`) → their names in
-        the report (a kind it does not name goes by its key).
+        the report; the analogy benchmark runs the kinds named here (none named: ``"pose"`` and ``"body"``).
     view : the pyvista camera that shows its shapes from the side (``"xz"``: z up; ``"zy"``: y up).
     context : what ``results.md`` says of its data.
     paper_numbers : whether the paper publishes numbers on such data (its Table 1 and ablation are set beside ours,

@@ -15,7 +15,14 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Callable
 
-from ..evaluate import Method, base_shape_method, geometric_method, nearest_neighbour_method, refined_method
+from ..evaluate import (
+    Method,
+    base_shape_method,
+    geometric_method,
+    nearest_neighbour_method,
+    refined_method,
+    sfl_method,
+)
 from ..shape_difference import KINDS
 
 __all__ = [
@@ -106,8 +113,14 @@ def _funcchar_int(collection, budget, device):
     return _funcchar(collection, budget, device, FUNCCHAR_INT, "FuncChar (Int)")
 
 
+def _sfl(collection, budget, device):
+    """Shape-from-Laplacian (:func:`opnet.evaluate.sfl_method`) on as many shapes as the refinement rows."""
+    return sfl_method(collection, max_shapes=budget.refine_shapes, device=device)
+
+
 register_baseline("nearest_neighbour", _nearest_neighbour)
 register_baseline("base_shape", _base_shape)
 register_baseline("geometric", _geometric)
 register_baseline("funcchar", _funcchar)
 register_baseline("funcchar_int", _funcchar_int)
+register_baseline("sfl", _sfl)

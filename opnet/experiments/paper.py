@@ -22,6 +22,7 @@ PAPER_TABLE1 = {
     "OperatorNet (Comp)(Int+Ext)": (6.22, 0.022, 0.053),
     "FuncChar (Int+Ext)": (28.4, 0.028, 0.110),
     "FuncChar (Int)": (65.1, 0.356, 0.118),
+    "SfL": (48.8, 0.081, 0.012),
 }
 #: The columns of the paper's ablation (Appendix B), in its order: short name → input channels.
 PAPER_ABLATION_SETS = CHANNEL_SETS

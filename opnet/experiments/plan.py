@@ -17,7 +17,7 @@ from ..data.generators import PRESETS as DATA_PRESETS
 from ..inner_products import channel_label, channel_names
 from ..shape_difference import CHANNEL_SETS, KINDS
 from .paper import PAPER_ABLATION_DEPTHS
-from .spec import RunSpec
+from .spec import ARCHITECTURES, RunSpec
 
 __all__ = [
     "Budget",
@@ -33,6 +33,7 @@ __all__ = [
     "TABLE1_ROWS",
     "PAPER_ROWS",
     "MORE_BODIES",
+    "POINT_VARIANTS",
     "ABLATION_SETS",
     "ABLATION_DEPTHS",
     "ABLATION_GRIDS",
@@ -257,11 +258,12 @@ class Plan:
 
 def spec(group: str, budget: Budget, channels=KINDS, depth: int = 1, variant: str = "paper", **fields) -> RunSpec:
     """The declared run of one network of the reproduction: ``group`` names its folder's prefix, ``variant`` is
-    ``"paper"``, ``"ours"`` or ``"pointnet"`` (the PointNet autoencoder, ``budget.pointnet_epochs``); the budget's
+    ``"paper"``, ``"ours"`` or a point-set autoencoder's architecture (``"pointnet"``, ``"pointnet_stn"``,
+    ``"pointnet2"``: :data:`~opnet.experiments.spec.ARCHITECTURES`, ``budget.pointnet_epochs``); the budget's
     epochs, batch size, learning rate, width and schedule (not for ``"ours"``, which keeps its own); ``fields``:
     other fields of :class:`~opnet.experiments.spec.RunSpec` (``name``, ``epochs``, ``seed``, ``options``).
     """
-    pointnet = variant == "pointnet"
+    pointnet = variant in ARCHITECTURES and variant != "operatornet"
     epochs = fields.pop("epochs", None) or (budget.pointnet_epochs if pointnet else budget.epochs)
     fields["options"] = dict(fields.get("options") or {})
     if variant != "ours":  # our variant keeps its one-cycle schedule
@@ -270,7 +272,7 @@ def spec(group: str, budget: Budget, channels=KINDS, depth: int = 1, variant: st
         channels=() if pointnet else channels,
         depth=depth,
         variant="paper" if pointnet else variant,
-        architecture="pointnet" if pointnet else "operatornet",
+        architecture=variant if pointnet else "operatornet",
         epochs=epochs,
         batch_size=budget.batch_size,
         lr=budget.lr,
@@ -286,6 +288,13 @@ TABLE1_ROWS = {
     "int": ("OperatorNet (Int)", ("area", "conformal"), "paper", "OperatorNet (Int)"),
     "ext": ("OperatorNet (Ext)", ("extrinsic",), "paper", "OperatorNet (Ext)"),
     "ours": ("OperatorNet ours (Int+Ext)", KINDS, "ours", None),
+}
+#: The other point-set autoencoders beside the PointNet AE of the paper's comparisons (section 7 and Fig. 18): key →
+#: (name, architecture). The paper trained PointNet with and without its spatial transformer and kept the one without,
+#: which did better; the appendix adds a PointNet++ autoencoder with the same decoder.
+POINT_VARIANTS = {
+    "pointnet-stn": ("PointNet AE (transformer)", "pointnet_stn"),
+    "pointnet2": ("PointNet++ AE", "pointnet2"),
 }
 #: The rows beside Table 1 for unseen bodies: this project's variant trained on the collection drawn with more
 #: bodies (and random poses) among its training shapes (``load_collection``'s ``bodies``, ``poses``); ``seeds``: an
@@ -331,6 +340,10 @@ def declare(budget: Budget, *, ablation_sets: dict | None = None, seeds: int = 1
             "PointNet AE",
             spec("table1", budget, variant="pointnet", name="PointNet AE", **rep),
             part="applications",
+        ),
+        *(
+            Entry(key, name, spec("table1", budget, variant=arch, name=name, **rep), part="applications")
+            for key, (name, arch) in POINT_VARIANTS.items()
         ),
         Entry(
             "nn",
@@ -387,6 +400,7 @@ def declare(budget: Budget, *, ablation_sets: dict | None = None, seeds: int = 1
             part="refine",
             paper_row="FuncChar (Int)",
         ),
+        Entry("sfl", "SfL (full Laplacian)", baseline="sfl", test_sets=REFINE_SETS, part="refine", paper_row="SfL"),
     ]
     entries += [
         Entry(f"{key}+refined", f"{by_key[key].name} + refinement", refines=key, test_sets=REFINE_SETS, part="refine")

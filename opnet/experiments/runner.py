@@ -54,7 +54,7 @@ class Run:
         its rows carrying the spec's fields, the run's info and ``fields`` (e.g. ``table``).
         """
         info = {**self.spec.fields(), **self.info, **fields}
-        if self.spec.architecture == "pointnet":
+        if self.spec.reads_points:
             return pointnet_method(self.net, collection, self.spec.label, info=info)
         return operatornet_method(self.net, collection, self.spec.label, info=info)
 

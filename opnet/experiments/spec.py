@@ -26,8 +26,16 @@ __all__ = ["RunSpec", "VARIANTS", "ARCHITECTURES"]
 
 #: The network variants a spec may ask for (:data:`opnet.model.VARIANTS`).
 VARIANTS = ("paper", "ours")
-#: What a spec may train: OperatorNet (reads operators) or the PointNet autoencoder (reads coordinates).
-ARCHITECTURES = ("operatornet", "pointnet")
+#: What a spec may train: OperatorNet (reads operators) or a point-set autoencoder (reads coordinates): PointNet
+#: without its spatial transformer (the paper's comparisons), with it, and PointNet++
+#: (:data:`opnet.model.ARCHITECTURES`).
+ARCHITECTURES = ("operatornet", "pointnet", "pointnet_stn", "pointnet2")
+#: Display names of the point-set autoencoders.
+_POINT_LABELS = {
+    "pointnet": "PointNet AE",
+    "pointnet_stn": "PointNet AE (transformer)",
+    "pointnet2": "PointNet++ AE",
+}
 
 
 @dataclass(frozen=True)
@@ -37,10 +45,11 @@ class RunSpec:
     Parameters
     ----------
     channels : the operators it reads (names, inner products of your own, or a short name such as ``"A+E"``);
-        ``()`` for ``architecture="pointnet"``.
+        ``()`` for a point-set autoencoder.
     depth : OperatorNet's encoder depth (1–4).
     variant : ``"paper"`` or ``"ours"`` (:data:`opnet.model.VARIANTS`).
-    architecture : ``"operatornet"`` or ``"pointnet"``.
+    architecture : ``"operatornet"``, or a point-set autoencoder: ``"pointnet"`` (PointNet without its spatial
+        transformer, the paper's), ``"pointnet_stn"`` (with it) or ``"pointnet2"`` (PointNet++).
     epochs, batch_size, lr, hidden, seed : the budget and the seed (:func:`opnet.train.fit`).
     schedule : the learning rate over the run (:data:`opnet.train.SCHEDULES`; default ``None``: the variant's), checked
         by :class:`opnet.train.TrainConfig` when the run's folder is named or trained.
@@ -75,11 +84,11 @@ class RunSpec:
         channels = split_channels(self.channels)
         # names stay names (a collection resolves them); classes and "module:Class" become inner products
         channels = tuple(c if isinstance(c, str) and ":" not in c else get_inner_product(c) for c in channels)
-        if self.architecture == "pointnet" and channels not in ((), KINDS):
-            raise ValueError("a pointnet run reads coordinates, not operators: leave channels=().")
+        if self.reads_points and channels not in ((), KINDS):
+            raise ValueError(f"a {self.architecture} run reads coordinates, not operators: leave channels=().")
         if self.architecture == "operatornet" and not channels:
             raise ValueError("an operatornet run needs channels (e.g. ('area', 'extrinsic')).")
-        object.__setattr__(self, "channels", () if self.architecture == "pointnet" else channels)
+        object.__setattr__(self, "channels", () if self.reads_points else channels)
         if isinstance(self.seeds, int) and not isinstance(self.seeds, bool) and self.seeds >= 1:
             raise TypeError(
                 f"seeds lists the seeds, e.g. (0, 1, 2) (tuple(range({self.seeds})) for {self.seeds} of them)."
@@ -103,6 +112,11 @@ class RunSpec:
             raise ValueError(f"group must be a folder-name prefix (letters, digits, _ . + -), got {self.group!r}.")
 
     @property
+    def reads_points(self) -> bool:
+        """Whether it trains a point-set autoencoder (it reads the shapes' coordinates) rather than OperatorNet."""
+        return self.architecture != "operatornet"
+
+    @property
     def channel_names(self) -> tuple[str, ...]:
         """The names of :attr:`channels`, in order."""
         return channel_names(self.channels)
@@ -112,15 +126,16 @@ class RunSpec:
         """The display name (:attr:`name` when given): for tables and figures, never parsed."""
         if self.name is not None:
             return self.name
-        if self.architecture == "pointnet":
-            return "PointNet AE"
+        if self.reads_points:
+            return _POINT_LABELS[self.architecture]
         ours = " ours" if self.variant == "ours" else ""
         depth = f" depth {self.depth}" if self.depth != 1 else ""
         return f"OperatorNet{ours} ({channel_label(self.channels)}){depth}"
 
     @property
     def run_name(self) -> str:
-        """The run directory's name: ``<group>-<channels>-d<depth>[-<variant>]`` (``<group>-pointnet``).
+        """The run directory's name: ``<group>-<channels>-d<depth>[-<variant>]`` (``<group>-<architecture>`` for a
+        point-set autoencoder).
 
         Built-in channels in the order of a short name of :data:`opnet.CHANNEL_SETS` go by it (``A+E+C``, ``Ext``:
         the folders reproduce always used), in another order by their names (``extrinsic+area``: the channel order
@@ -131,8 +146,8 @@ class RunSpec:
         """
         if self.seeds:
             return "+".join(r.run_name for r in self.replicates())
-        if self.architecture == "pointnet":
-            stem = f"{self.group}-pointnet"
+        if self.reads_points:
+            stem = f"{self.group}-{self.architecture}"
         else:
             names = self.channel_names
             short = next((k for k, v in CHANNEL_SETS.items() if v == names), None)
@@ -182,8 +197,8 @@ class RunSpec:
         common = dict(epochs=self.epochs, batch_size=self.batch_size, lr=self.lr, hidden=self.hidden, seed=self.seed)
         if self.schedule is not None:
             common["schedule"] = self.schedule
-        if self.architecture == "pointnet":
-            return dict(common, architecture="pointnet", **self.options)
+        if self.reads_points:
+            return dict(common, architecture=self.architecture, **self.options)
         return dict(common, channels=list(self.channels), depth=self.depth, variant=self.variant, **self.options)
 
     def fields(self) -> dict:

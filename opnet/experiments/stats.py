@@ -72,6 +72,8 @@ class Comparison:
     b: str
     difference: Interval
     verdict: str
+    a_mean: float | None = None
+    b_mean: float | None = None
 
     def text(self, scale: float = 1.0) -> str:
         d = self.difference
@@ -118,7 +120,7 @@ def paired_difference(a, b, *, names=("a", "b"), level: float = LEVEL, verdict: 
         )
     d = interval(x - y, level=level)
     said = VERDICTS[2] if not verdict else VERDICTS[0] if d.high < 0 else VERDICTS[1] if d.low > 0 else VERDICTS[2]
-    return Comparison(names[0], names[1], d, said)
+    return Comparison(names[0], names[1], d, said, float(x.mean()), float(y.mean()))
 
 
 #: The errors a row summarises over seeds (each with its ``<metric>_shapes``: per seed, per shape).
@@ -179,6 +181,19 @@ def _errors(row: dict, metric: str) -> np.ndarray:
     return np.atleast_2d(np.asarray(values, dtype=np.float64))
 
 
+def _shared_shapes(a, b) -> list:
+    """The shapes (indices) of ``a`` also in ``b``, in ``a``'s order; an error when there are none or either row
+    does not list its shapes.
+    """
+    if not (isinstance(a, list) and isinstance(b, list)):
+        raise ValueError("the two rows were measured on other shapes; compare rows of one collection and test set.")
+    other = set(b)
+    shared = [i for i in a if i in other]
+    if not shared:
+        raise ValueError("the two rows share no shape; compare rows of one collection and test set.")
+    return shared
+
+
 def _fields(name: str, value) -> dict:
     """``compare``'s ``a`` or ``b`` as fields: a dict as it is, a string as a method's name."""
     if isinstance(value, str):
@@ -196,8 +211,9 @@ def compare(
 ) -> Comparison:
     """The paired comparison (:func:`paired_difference`) of the method whose rows have the fields ``a`` against the
     one with ``b`` (:func:`opnet.experiments.rows.matches`; a string: the ``method`` field), on ``split``: the same
-    shapes, seed by seed (a deterministic method of one row, a baseline, stands beside each seed of the other). The
-    verdict says which has the lower ``metric``. ``factor``: compare ``a`` with ``factor`` times ``b`` (the
+    shapes (those both rows measured, when one row measured a few of them: a slow baseline), seed by seed (a
+    deterministic method of one row, a baseline, stands beside each seed of the other). The verdict says which has
+    the lower ``metric``. ``factor``: compare ``a`` with ``factor`` times ``b`` (the
     difference ``a − factor·b``), for a claim such as "within 5× of" (``factor=5``) or "ten times better than"
     (``factor=0.1``).
     """
@@ -218,9 +234,10 @@ def compare(
         return found[0]
 
     ra, rb = find(a), find(b)
-    if ra.get("shapes") != rb.get("shapes"):
-        raise ValueError("the two rows were measured on other shapes; compare rows of one collection and test set.")
     x, y = _errors(ra, metric), _errors(rb, metric)
+    if ra.get("shapes") != rb.get("shapes"):  # one measured on a few of the other's shapes: paired on those
+        shared = _shared_shapes(ra.get("shapes"), rb.get("shapes"))
+        x, y = x[:, [ra["shapes"].index(i) for i in shared]], y[:, [rb["shapes"].index(i) for i in shared]]
     trained = [r for r, v in ((ra, x), (rb, y)) if r.get("baseline") is None]
     if len(x) != len(y):
         fixed = [r for r, v in ((ra, x), (rb, y)) if len(v) == 1 and r.get("baseline") is not None]

@@ -10,10 +10,12 @@ from pathlib import Path
 import numpy as np
 
 from .._checks import check_int
+from ..data.profiles import profile_of
 from ..evaluate import evaluate, evenly_spaced, operatornet_method, test_set_indices
 from .baselines import REFINE
 from .figures import application_figures, discretisation_figure
 from .figures import refinement_curves as _curves
+from .plan import POINT_VARIANTS
 from .stats import summarize_seeds
 
 __all__ = [
@@ -21,6 +23,7 @@ __all__ = [
     "discretisation_indices",
     "discretisation_rows",
     "application_methods",
+    "analogy_kinds",
     "applications_rows",
     "seeded_applications_rows",
     "PATH_METRICS",
@@ -135,13 +138,14 @@ def application_methods(coll, runs: dict, budget, *, refine: bool = True, device
     """The applications' methods (:class:`opnet.apps.ShapeAlgebra`): the paper's OperatorNet (Int+Ext) with the
     multiplicative and the linear algebra, our variant, the first + refinement
     (:data:`~opnet.experiments.baselines.REFINE`, at most ``budget.apps_refine_shapes`` shapes per kind), the PointNet
-    AE and NN. ``runs``: the plan's entry keys (``"int+ext"``, ``"ours"``, ``"pointnet"``) → their
+    AE (and the other point-set autoencoders of :data:`~opnet.experiments.plan.POINT_VARIANTS` that ``runs`` holds) and
+    NN. ``runs``: the plan's entry keys (``"int+ext"``, ``"ours"``, ``"pointnet"``, ...) → their
     :class:`~opnet.experiments.runner.Run`. Each method carries its run's structured fields and the plan's ``entry``
     (:attr:`opnet.apps.ShapeAlgebra.fields`; ``refined`` for the refined one), NN ``baseline`` ``"nearest_neighbour"``.
     """
     from .. import apps
 
-    paper, ours, pointnet = (runs[key] for key in ("int+ext", "ours", "pointnet"))
+    paper, ours = (runs[key] for key in ("int+ext", "ours"))
     fields = dict(paper.spec.fields(), entry="int+ext")
     methods = [
         apps.operatornet_algebra(paper.net, coll, fields=fields),
@@ -160,11 +164,27 @@ def application_methods(coll, runs: dict, budget, *, refine: bool = True, device
                 fields=dict(paper.spec.refined_fields(), entry="int+ext+refined"),
             )
         )
+    points = [key for key in ("pointnet", *POINT_VARIANTS) if key in runs]
     methods += [
-        apps.pointnet_algebra(pointnet.net, coll, fields=dict(pointnet.spec.fields(), entry="pointnet")),
+        *(
+            apps.pointnet_algebra(
+                runs[key].net, coll, name=runs[key].spec.label, fields=dict(runs[key].spec.fields(), entry=key)
+            )
+            for key in points
+        ),
         apps.nearest_neighbour_algebra(coll, fields=dict(baseline="nearest_neighbour", entry="nn")),
     ]
     return methods
+
+
+def analogy_kinds(coll) -> tuple:
+    """The analogy benchmark's kinds for ``coll``: those its profile names (:attr:`opnet.data.Profile.analogy_kinds`),
+    else ``("pose", "body")``, which every generator gives ground truth for.
+    """
+    from ..apps import ANALOGY_KINDS
+
+    named = tuple(k for k in profile_of(coll.meta.get("name")).analogy_kinds if k in ANALOGY_KINDS)
+    return named or ("pose", "body")
 
 
 def applications_rows(
@@ -178,7 +198,7 @@ def applications_rows(
     """
     from .. import apps
 
-    quads = [apps.analogy_quadruples(coll, kind, budget.analogies, seed=seed) for kind in apps.ANALOGY_KINDS]
+    quads = [apps.analogy_quadruples(coll, kind, budget.analogies, seed=seed) for kind in analogy_kinds(coll)]
     paths = [apps.interpolation_paths(coll, kind, budget.paths, seed=seed) for kind in apps.PATH_KINDS]
     each = dict(progress=progress, per_shape=per_shape)
     rows = [dict(r, table="analogy") for r in apps.analogy_benchmark(coll, methods, quads, **each)]

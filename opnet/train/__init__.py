@@ -137,12 +137,14 @@ def fit(
         the same ``epochs``.
     standardize, residual : override the variant's network options one by one (see :class:`opnet.OperatorNet`),
         e.g. to measure each part of ``"ours"`` alone.
-    architecture : ``"operatornet"`` (default) or ``"pointnet"``: the PointNet autoencoder
+    architecture : ``"operatornet"`` (default), ``"pointnet"``: the PointNet autoencoder
         (:class:`opnet.model.PointNetAutoencoder`), which reads the shapes' coordinates instead of their operators
         and is trained with the same loss, checkpoints and resume (``channels``, ``depth`` and the variant's
-        options do not apply to it; ``hidden`` and ``schedule`` do).
+        options do not apply to it; ``hidden`` and ``schedule`` do); ``"pointnet_stn"``: the same with PointNet's
+        input transform (:class:`opnet.model.PointNetTransformerAutoencoder`); ``"pointnet2"``: a PointNet++
+        encoder (:class:`opnet.model.PointNet2Autoencoder`).
     n_points : how many vertices the PointNet encoder reads (spread over the base shape by
-        :meth:`~opnet.model.PointNetAutoencoder.choose_points`); default 256 for ``architecture="pointnet"``.
+        :meth:`~opnet.model.PointNetAutoencoder.choose_points`); default 256 for the point-set autoencoders.
     checkpoint_every : seconds between the checkpoints written to ``run_dir`` (``latest.pt`` with ``best.pt``
         and ``history.json``); the last epoch is always written, and ``0`` writes every epoch. A run killed in
         between resumes from its last checkpoint and replays the epochs after it to the same result (each epoch's

@@ -74,8 +74,9 @@ _VARIANT_HELP = (
     "rate (docs/results.md, 'Our variant')"
 )
 _ARCHITECTURE_HELP = (
-    "operatornet (default), or pointnet: the PointNet autoencoder baseline, which reads the coordinates (same "
-    "decoder, loss and checkpoints; --channels/--variant do not apply)"
+    "operatornet (default), or a point-set autoencoder that reads the coordinates (same decoder, loss and "
+    "checkpoints; --channels/--variant do not apply): pointnet (the paper's PointNet baseline, no spatial "
+    "transformer), pointnet_stn (with its input transform) or pointnet2 (PointNet++)"
 )
 
 
@@ -113,7 +114,8 @@ class TrainConfig:
     standardize, residual : bool, optional
         Override the variant's network options.
     architecture : str
-        ``"operatornet"`` or ``"pointnet"``.
+        ``"operatornet"``, or a point-set autoencoder (:data:`opnet.model.ARCHITECTURES`): ``"pointnet"``,
+        ``"pointnet_stn"``, ``"pointnet2"``.
     n_points : int, optional
         Vertices the PointNet encoder reads (default 256, :attr:`points`).
     device : str
