@@ -224,6 +224,7 @@ def _run(args) -> int:
             test_sets_for,
         )
         from .experiments.config import EvaluateConfig
+        from .experiments.spec import POINT_LABELS
         from .options import config_from_args
         from .train import checkpoint_path, model_from_checkpoint, read_checkpoint
 
@@ -263,8 +264,10 @@ def _run(args) -> int:
         net = model_from_checkpoint(ckpt, path, coll, device=config.device)
         if hasattr(net, "channels"):
             methods = [operatornet_method(net, coll), nearest_neighbour_method(coll, net.channels)]
-        else:  # the PointNet autoencoder
-            methods = [pointnet_method(net, coll), nearest_neighbour_method(coll)]
+        else:  # a point-set autoencoder
+            info = dict(architecture=net.architecture)
+            label = POINT_LABELS[net.architecture]
+            methods = [pointnet_method(net, coll, label, info=info), nearest_neighbour_method(coll)]
         rows = evaluate(coll, methods + [base_shape_method(coll)], test_sets_for(coll))
         print(_table(rows))
         if config.json:

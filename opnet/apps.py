@@ -313,7 +313,8 @@ def ground_truth_pool(collection):
 class Quadruples:
     """Analogy questions with their answers: ``A : B :: C : X``, vertices ``(Q, n, 3)`` each, and their ``kind``.
 
-    ``phenotypes`` ``(Q, 2, 6)``: the subjects ``a``, ``b`` of each question; ``poses`` ``(Q, 2)``: the collection
+    ``phenotypes`` ``(Q, 2, 6)``: the subjects ``a``, ``b`` of each question (a gender transfer: as in ``A`` and
+    ``C``, male); ``poses`` ``(Q, 2)``: the collection
     indices of the ``test`` shapes whose poses are ``p``, ``q`` (see :func:`analogy_quadruples` for the roles).
     """
 
@@ -342,21 +343,22 @@ def analogy_quadruples(collection, kind: str = "pose", n: int = 100, *, seed: in
       the subject unchanged: ``A`` and ``B`` differ by gender alone, ``C`` varies (another subject, another pose).
 
     The four shapes are generated anew (:func:`opnet.data.generators.generate_shapes`); ``seed`` draws them (each
-    kind its own draws, so that the two kinds are independent samples: the linear algebra, ``C + B − A``, would
+    kind its own draws, so that the kinds are independent samples: the linear algebra, ``C + B − A``, would
     give both kinds the same answer).
     """
-    from .data.generators import generate_shapes
+    from .data.generators import generate_shapes, generated_name
+    from .data.profiles import profile_of
     from .data.subjects import PHENOTYPES
 
     if kind not in ANALOGY_KINDS:
         raise ValueError(f"kind must be one of {ANALOGY_KINDS}, got {kind!r}.")
     check_int("n", n)
     subjects, pose_idx, sequences = ground_truth_pool(collection)
-    if kind == "gender" and subjects.shape[1] != len(PHENOTYPES):
+    if kind == "gender" and "gender" not in profile_of(generated_name(collection)).analogy_kinds:
         raise ValueError(
             f"gender analogies set the subjects' gender phenotype (column {PHENOTYPES.index('gender')} of "
-            f"{PHENOTYPES}); this collection's subjects have {subjects.shape[1]} columns: use the humans, heads or "
-            "hands."
+            f"{PHENOTYPES}); this collection's profile names no gender transfer ({generated_name(collection)!r}'s "
+            "subjects have no gender): use the humans, heads or hands."
         )
     if len(subjects) < 2 or len(set(sequences)) < 2:
         raise ValueError(
@@ -382,6 +384,7 @@ def analogy_quadruples(collection, kind: str = "pose", n: int = 100, *, seed: in
         male_a[:, g], female_a[:, g], male_b[:, g], female_b[:, g] = 0.0, 1.0, 0.0, 1.0
         phen = np.concatenate([male_a, female_a, male_b, female_b])
         ctrl = np.concatenate([controls[p], controls[p], controls[q], controls[q]])
+        who["phenotypes"] = np.stack([male_a, male_b], axis=1)  # A's and C's subjects (B and X: female)
         return Quadruples(kind, *np.split(generate_shapes(collection, phen, ctrl), 4), **who)
     phen = np.concatenate([subjects[a], subjects[a], subjects[b], subjects[b]])
     ctrl = np.concatenate([controls[p], controls[q], controls[p], controls[q]])

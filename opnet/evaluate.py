@@ -1,15 +1,17 @@
 """Evaluation (section 6): methods × metrics × test sets, as in the paper's Table 1.
 
 Methods are :class:`Method` objects: a name and a function from shape indices of a collection to
-reconstructed vertices. Three kinds are provided:
+reconstructed vertices. These are provided:
 
 - :func:`operatornet_method`: a trained :class:`opnet.OperatorNet` decoding the shapes' operators;
-- :func:`pointnet_method`: the PointNet autoencoder (:class:`opnet.model.PointNetAutoencoder`) encoding and
-  decoding the shapes' coordinates (the paper's baseline of section 7);
+- :func:`pointnet_method`: a point-set autoencoder (:class:`opnet.model.PointNetAutoencoder`, the paper's baseline
+  of section 7, or one of the other :data:`opnet.model.ARCHITECTURES`) encoding and decoding the shapes'
+  coordinates;
 - :func:`nearest_neighbour_method`: the training shape whose operators (the same channels, Frobenius
   norm) are nearest (the paper's "NN" row);
 - :func:`base_shape_method`: the base shape itself, whatever the input (the "do nothing" floor);
 - :func:`geometric_method`: vertices moved from the base until their operators match (no learning);
+- :func:`sfl_method`: Shape-from-Laplacian, a shape from its full Laplacian (the paper's "SfL" row);
 - :func:`refined_method`: another method's output, moved until its operators match the input's.
 
 Test sets (:data:`TEST_SETS`): ``"eval_subset"`` (the paper's protocol: 5 shapes per held-out

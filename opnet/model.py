@@ -325,7 +325,7 @@ class PointNetTransformerAutoencoder(PointNetAutoencoder):
 
 class PointNet2Autoencoder(PointNetAutoencoder):
     """A PointNet++ encoder (Qi et al. 2017, "PointNet++", single-scale grouping) with OperatorNet's dense decoder:
-    the autoencoder of the paper's Appendix (Fig. 18).
+    the autoencoder of the paper's Appendix (Fig. 17).
 
     The encoder reads the ``n_points`` vertices of :meth:`~PointNetAutoencoder.choose_points` and abstracts them
     twice: farthest-point sampling picks ``128`` then ``32`` centres on each shape, each centre groups its ``32``

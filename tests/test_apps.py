@@ -321,8 +321,10 @@ def test_gender_quadruples_change_the_gender_alone(humans):
     g = PHENOTYPES.index("gender")
     unseen = humans.params["phenotypes"][humans.indices("test_subjects")]
     for role, (s, p, gender) in dict(A=(0, 0, 0.0), B=(0, 0, 1.0), C=(1, 1, 0.0), X=(1, 1, 1.0)).items():
-        subject = Q.phenotypes[:, s].copy()
-        assert all(np.any(np.all(np.isclose(unseen, v), axis=1)) for v in subject)
+        subject = Q.phenotypes[:, s].copy()  # as in A and C: male
+        assert np.all(subject[:, g] == 0.0)
+        other = [c for c in range(len(PHENOTYPES)) if c != g]  # the rest of the subject: an unseen one's
+        assert all(np.any(np.all(np.isclose(unseen[:, other], v[other]), axis=1)) for v in subject)
         subject[:, g] = gender
         again = generators.generate_shapes(humans, subject, controls[Q.poses[:, p]])
         np.testing.assert_allclose(getattr(Q, role), again, atol=1e-9, err_msg=role)

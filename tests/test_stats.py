@@ -122,7 +122,7 @@ def test_a_factor_compares_with_a_multiple_of_the_other_method():
 
 def test_a_baseline_measured_on_a_few_shapes_is_paired_on_those():
     """A slow baseline (SfL, FuncChar) measures a few of the test shapes: it is compared with a network on those, seed
-    by seed, and the means are those of the shared shapes; rows that share no shape are refused."""
+    by seed, and the means are those of the shared shapes; rows whose shapes are not one's subset are refused."""
     rng = np.random.default_rng(4)
     err = rng.gamma(4.0, 1.0, (3, 40))
     few = [3, 17, 29, 35]
@@ -132,6 +132,7 @@ def test_a_baseline_measured_on_a_few_shapes_is_paired_on_those():
         ),
         dict(table="table1", split="test", method="sfl", baseline="sfl", shapes=few, d_R_shapes=[[50.0] * 4]),
         dict(table="table1", split="test", method="far", baseline="far", shapes=[40, 41], d_R_shapes=[[1.0, 1.0]]),
+        dict(table="table1", split="test", method="part", baseline="part", shapes=[39, 40], d_R_shapes=[[1.0, 1.0]]),
     ]
     c = stats.compare(rows, dict(method="net"), dict(method="sfl"))
     assert c.verdict == "a better" and c.difference.n_shapes == 4
@@ -141,5 +142,6 @@ def test_a_baseline_measured_on_a_few_shapes_is_paired_on_those():
     np.testing.assert_allclose(
         stats.compare(rows, dict(method="sfl"), dict(method="net")).difference.mean, 50.0 - err[:, few].mean()
     )
-    with pytest.raises(ValueError, match="share no shape"):
-        stats.compare(rows, dict(method="net"), dict(method="far"))
+    for other in ("far", "part"):  # none shared, or some: not one test set's subset
+        with pytest.raises(ValueError, match="neither's are a subset of the other's"):
+            stats.compare(rows, dict(method="net"), dict(method=other))

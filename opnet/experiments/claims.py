@@ -240,7 +240,7 @@ CLAIMS = (
                 dict(_INT_EXT, scheme="linear"),
                 "Figs. 1 and 9; Appendix E, Fig. 16 (the linear algebra)",
             ),
-            ("the PointNet++ autoencoder", dict(architecture="pointnet2", refined=None), "Appendix, Fig. 18"),
+            ("the PointNet++ autoencoder", dict(architecture="pointnet2", refined=None), "Appendix, Fig. 17"),
         )
     ),
     Claim(
@@ -347,7 +347,8 @@ def claims_markdown(rows, claims=CLAIMS) -> list[str]:
     ]
     for j in judged:
         c, scale = j.claim, 1e4 if j.claim.metric == "d_R" else 1.0
-        diff = "–" if j.comparison is None else j.comparison.difference.text(scale)
+        d = None if j.comparison is None else j.comparison.difference
+        diff = "–" if d is None else f"{d.text(scale)} ({d.n_shapes} shapes)"  # the means too: on the shapes paired
         if j.better_mean is None:
             means, holds = "several rows", ""
         else:

@@ -32,6 +32,7 @@ __all__ = [
     "DATA",
     "TABLE1_ROWS",
     "PAPER_ROWS",
+    "SUBSET_ENTRIES",
     "MORE_BODIES",
     "POINT_VARIANTS",
     "ABLATION_SETS",
@@ -289,7 +290,7 @@ TABLE1_ROWS = {
     "ext": ("OperatorNet (Ext)", ("extrinsic",), "paper", "OperatorNet (Ext)"),
     "ours": ("OperatorNet ours (Int+Ext)", KINDS, "ours", None),
 }
-#: The other point-set autoencoders beside the PointNet AE of the paper's comparisons (section 7 and Fig. 18): key →
+#: The other point-set autoencoders beside the PointNet AE of the paper's comparisons (section 7 and Fig. 17): key →
 #: (name, architecture). The paper trained PointNet with and without its spatial transformer and kept the one without,
 #: which did better; the appendix adds a PointNet++ autoencoder with the same decoder.
 POINT_VARIANTS = {
@@ -468,3 +469,6 @@ def select(plan: Plan, parts) -> Plan:
 #: The paper's Table 1 rows (:data:`opnet.experiments.paper.PAPER_TABLE1`) → the fields of the entries that stand
 #: beside them (:meth:`Entry.match_fields`): declared once, by the entries' ``paper_row``.
 PAPER_ROWS = {e.paper_row: e.match_fields() for e in declare(BUDGETS["quick"]).entries if e.paper_row}
+#: The entries measured on at most ``Budget.refine_shapes`` shapes of each test set (the ``refine`` part: the
+#: operator-matching baselines, SfL and the refinements), by key.
+SUBSET_ENTRIES = frozenset(e.key for e in declare(BUDGETS["quick"]).entries if e.part == "refine")

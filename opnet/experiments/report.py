@@ -25,7 +25,7 @@ from ..data.profiles import profile_of
 from ..evaluate import SPECIES_SETS
 from .claims import claims_markdown
 from .paper import PAPER_ABLATION, PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS, PAPER_TABLE1
-from .plan import BUDGETS, PAPER_ROWS, ablation_label, declare
+from .plan import BUDGETS, PAPER_ROWS, SUBSET_ENTRIES, ablation_label, declare
 from .rows import matches, row_channels
 from .targets import judge, targets_of
 
@@ -397,7 +397,8 @@ def context_markdown(context: dict) -> list[str]:
         f"sequence) has {context['eval_subset']} shapes.",
         "",
         f"Training: Adam, {_schedule_text(b)}, batch {b['batch_size']}, {b['epochs']} epochs for Table 1's "
-        f"OperatorNets ({b.get('pointnet_epochs', b['epochs'])} for the PointNet AE) and {b['ablation_epochs']} for "
+        f"OperatorNets ({b.get('pointnet_epochs', b['epochs'])} for the point-set autoencoders) and "
+        f"{b['ablation_epochs']} for "
         "the ablation"
         + (" (fewer, to keep the 28-network grid affordable)" if b["ablation_epochs"] < b["epochs"] else "")
         + f"{_seeds_text(context)}; model selection on `val`. "
@@ -484,11 +485,19 @@ _HEADLINE_SPLITS = ("test", "test_subjects")
 
 def headline_markdown(rows: list[dict]) -> list[str]:
     """The README's headline Table 1 (lines): each Table 1 method, and each row beside it, evaluated on all of
-    ``test`` and ``test_subjects`` (not the networks of :data:`MAPPED_GROUPS`, nor a row measured on fewer shapes of
-    a split than others, as the operator-matching rows are), its mean d_R (×10⁻⁴), d_V and d_E on ``test``, its mean
+    ``test`` and ``test_subjects`` (not the networks of :data:`MAPPED_GROUPS`, nor the refinements and the entries of
+    :data:`~opnet.experiments.plan.SUBSET_ENTRIES`, nor a row measured on fewer shapes of a split than others, as
+    those of an older file without entries), its mean d_R (×10⁻⁴), d_V and d_E on ``test``, its mean
     d_R on ``test_subjects`` and the paper's numbers; empty without Table 1 rows.
     """
-    t1 = [r for r in upgrade_rows(rows) if r.get("table") == "table1" and r.get("group") not in MAPPED_GROUPS]
+    t1 = [
+        r
+        for r in upgrade_rows(rows)
+        if r.get("table") == "table1"
+        and r.get("group") not in MAPPED_GROUPS
+        and not r.get("refined")
+        and r.get("entry") not in SUBSET_ENTRIES
+    ]
     whole = {s: max((r.get("n_shapes", 0) for r in t1 if r["split"] == s), default=0) for s in _HEADLINE_SPLITS}
     t1 = [r for r in t1 if r.get("n_shapes", whole.get(r["split"], 0)) >= whole.get(r["split"], 0)]  # all shapes
     if not t1:

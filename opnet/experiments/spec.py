@@ -22,7 +22,7 @@ from ..inner_products import (
 )
 from ..shape_difference import CHANNEL_SETS, KINDS
 
-__all__ = ["RunSpec", "VARIANTS", "ARCHITECTURES"]
+__all__ = ["RunSpec", "VARIANTS", "ARCHITECTURES", "POINT_LABELS"]
 
 #: The network variants a spec may ask for (:data:`opnet.model.VARIANTS`).
 VARIANTS = ("paper", "ours")
@@ -30,12 +30,8 @@ VARIANTS = ("paper", "ours")
 #: without its spatial transformer (the paper's comparisons), with it, and PointNet++
 #: (:data:`opnet.model.ARCHITECTURES`).
 ARCHITECTURES = ("operatornet", "pointnet", "pointnet_stn", "pointnet2")
-#: Display names of the point-set autoencoders.
-_POINT_LABELS = {
-    "pointnet": "PointNet AE",
-    "pointnet_stn": "PointNet AE (transformer)",
-    "pointnet2": "PointNet++ AE",
-}
+#: The point-set autoencoders' display names in tables (never parsed: rows carry ``architecture``).
+POINT_LABELS = {"pointnet": "PointNet AE", "pointnet_stn": "PointNet AE (transformer)", "pointnet2": "PointNet++ AE"}
 
 
 @dataclass(frozen=True)
@@ -127,7 +123,7 @@ class RunSpec:
         if self.name is not None:
             return self.name
         if self.reads_points:
-            return _POINT_LABELS[self.architecture]
+            return POINT_LABELS[self.architecture]
         ours = " ours" if self.variant == "ours" else ""
         depth = f" depth {self.depth}" if self.depth != 1 else ""
         return f"OperatorNet{ours} ({channel_label(self.channels)}){depth}"

@@ -172,13 +172,14 @@ class TrainConfig:
             or self.operator_noise
         ):
             raise ValueError(
-                "architecture='pointnet' reads coordinates, not operators: channels, depth, variant, "
+                f"architecture={self.architecture!r} reads coordinates, not operators: channels, depth, variant, "
                 "subtract_identity, standardize, residual and operator_noise are OperatorNet's options; leave them "
                 "unset."
             )
         if not self.pointnet and self.n_points is not None:
             raise ValueError(
-                "n_points is the PointNet autoencoder's option (architecture='pointnet'); OperatorNet reads "
+                "n_points is the PointNet autoencoders' option (architecture 'pointnet', 'pointnet_stn' or "
+                "'pointnet2'); OperatorNet reads "
                 "operators, not points: leave it unset."
             )
         if self.variant not in VARIANTS:
