@@ -255,9 +255,9 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_lo
         apps_refine_shapes=4,
     )
     rows = reproduce.reproduce(
-        "quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False, maps=False
-    )
-    assert {r["method"] for r in rows if r["table"] == "table1"} >= {"PointNet AE"}
+        "quick", tmp_path, budget=budget, device="cpu", progress=False, ablation=False, maps=False, points=True
+    )  # with the other point-set autoencoders (part "points")
+    assert {r["method"] for r in rows if r["table"] == "table1"} >= {"PointNet AE", "PointNet++ AE"}
     (pointnet,) = (tmp_path / "runs").glob("table1-pointnet-*")  # its name and the digest of its budget and data
     assert (pointnet / "best.pt").is_file()
     names = [
@@ -318,7 +318,7 @@ def test_reproduce_with_seeds_gives_the_applications_intervals_and_judges_their_
     options = dict(budget=budget, device="cpu", progress=False, ablation=False, maps=False, bodies=False)
     rows = reproduce.reproduce("quick", tmp_path, seeds=2, refine=False, figures=False, **options)
     apps = [r for r in rows if r["table"] in ("analogy", "interpolation") and r.get("run") is not None]
-    networks = ("int+ext", "ours", "pointnet", *reproduce.POINT_VARIANTS)  # the applications' trained methods
+    networks = ("int+ext", "ours", "pointnet")  # the applications' trained methods (no --points)
     assert apps and all(r["seeds"] == [0, 1] and len(r["provenance"]["runs"]) == 2 * len(networks) for r in apps)
     ana = next(r for r in apps if r["table"] == "analogy" and r["method"] == "PointNet AE" and r["kind"] == "pose")
     assert np.shape(ana["d_R_shapes"]) == (2, 4) and ana["d_R_low"] <= ana["d_R"] <= ana["d_R_high"]

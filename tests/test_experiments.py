@@ -108,7 +108,8 @@ def test_an_entry_is_a_network_a_baseline_or_a_refinement():
 
 def test_the_config_decides_the_parts_from_the_profile():
     humans = config.ReproduceConfig()
-    assert humans.parts() == plan.PARTS  # every part applies to the humans
+    assert humans.parts() == tuple(p for p in plan.PARTS if p != "points")  # every part applies to the humans ...
+    assert config.ReproduceConfig(points=True).parts() == plan.PARTS  # ... the costly point-set autoencoders if asked
     animals = config.ReproduceConfig(collection="animals")
     assert "maps" not in animals.parts() and "bodies" not in animals.parts() and "applications" in animals.parts()
     assert "ablation" not in config.ReproduceConfig(ablation=False).parts()

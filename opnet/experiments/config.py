@@ -40,7 +40,13 @@ class ReproduceConfig:
     applications: bool | None = option(
         None, "skip the PointNet autoencoder and the analogy / interpolation benchmarks", switch=True
     )
-    refine: bool = option(True, "skip the operator-matching rows (geometric baseline, FuncChar, + refinement)")
+    refine: bool = option(True, "skip the operator-matching rows (geometric baseline, FuncChar, SfL, + refinement)")
+    points: bool = option(
+        False,
+        "also train the other point-set autoencoders (PointNet with its spatial transformer, PointNet++: "
+        "plan.POINT_VARIANTS), with Table 1, analogy and interpolation rows; a PointNet++ training costs about three "
+        "times the PointNet AE's",
+    )
     maps: bool | None = option(
         None,
         "skip the computed-map rows (Table 1's Comp networks, other triangulations; maps take about 0.6 s per shape "
@@ -160,6 +166,7 @@ class ReproduceConfig:
             maps=p.computed_maps if self.maps is None else self.maps,
             bodies=p.more_bodies if self.bodies is None else self.bodies,
             ablation=self.ablation,
+            points=self.points,
         )
         return tuple(part for part in PARTS if chosen[part])
 
