@@ -295,7 +295,7 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
         decoders = [o for o in done.values() if o.entry.other_meshes]
         runs = [r for o in decoders for r in (o.runs if o.entry.replicated else o.runs[:1])]  # every seed decodes
         fields = {o.entry.name: {"entry": o.entry.key, **o.entry.run_fields()} for o in decoders}
-        settings = dict(fields=fields, shapes=ws.budget.discretisation_shapes)
+        settings = dict(fields=fields, shapes=ws.budget.discretisation_shapes, funcchar=refine)
         drawn = ["discretisation"]
     else:
         keys = ("int+ext", "ours", "pointnet", *(k for k in POINT_VARIANTS if k in done))
@@ -327,6 +327,8 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
             out=figures,
             shown=[o.entry.name for o in decoders if o.entry.key in ("int+ext", "comp-int+ext")],
             extra=extra,
+            funcchar=refine,
+            device=ws.device,
         )
     elif seeds > 1:  # each seed's networks on the same questions and paths, summarised with intervals
         options = dict(refine=refine, device=ws.device, out=figures, progress=ws.progress)

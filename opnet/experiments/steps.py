@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -63,6 +64,8 @@ def discretisation_rows(
     out=None,
     shown=(),
     extra: dict | None = None,
+    funcchar: bool = False,
+    device="cpu",
 ) -> list[dict]:
     """Reconstructions of test shapes given on other triangulations: rows with ``"table"`` ``"discretisation"``.
 
@@ -77,7 +80,9 @@ def discretisation_rows(
     encoding over its seeds (:func:`opnet.experiments.stats.summarize_seeds`: the mean, an interval over seeds and
     shapes). ``comp``: the collection through the 2k computed maps, whose maps are reused. With
     ``out``, writes ``discretisation.png`` there (:func:`discretisation_figure` of three 5k shapes, by the networks
-    named in ``shown``, default all).
+    named in ``shown``, default all). ``funcchar``: also FuncChar (Int+Ext)'s geometric reconstruction of the 5k
+    shapes through the computed maps (the paper's appendix, Fig. 12's bottom row; ``baseline`` ``"funcchar"``, at most
+    ``budget.refine_shapes`` shapes, on ``device``), its four channels carried through maps of their own.
     """
     from ..data import mapped_collection
     from ..data.mapped import MAP_K
@@ -102,6 +107,16 @@ def discretisation_rows(
                 for m in members
             ]  # fmt: skip
             rows.append(summarize_seeds(each) if len(each) > 1 else each[0])  # the claims pair them
+    if funcchar:  # Corman et al.'s reconstruction of the 5k inputs, beside the networks'
+        from .baselines import FUNCCHAR, baseline_method
+
+        c = mapped_collection(coll, "5k", "computed", indices=idx, root=data_root, progress=progress, channels=FUNCCHAR)
+        method = baseline_method("funcchar", c, budget, device)
+        where = dict(
+            table="discretisation", resolution="5k", maps="computed", map_error=float(np.mean(c.params["map_error"]))
+        )
+        method = replace(method, info={**method.info, **where})
+        rows += evaluate(c, [method], ("test",), extra=extra, per_shape=True)
     if out is not None:
         names = [name for name in shown if name in decoders] or list(decoders)
         picked = {name: _network(decoders[name][0]) for name in names}  # a replicated one: its first seed
