@@ -95,6 +95,7 @@ __all__ = [
     "discretisation_indices",
     "discretisation_figure",
     "generalisation_figure",
+    "analogy_kinds",
     "application_methods",
     "applications_rows",
     "refinement_curves",
