@@ -416,6 +416,20 @@ def test_the_shared_checks():
         real_array("x", np.array([True, False]))
 
 
+def test_a_trainings_seed_and_folder_name_bad_input(tmp_path, tiny_collection):
+    """The seed of `opnet train` (issue 40) is a non-negative integer that fits the generators; a run folder that
+    is a file is named (issue 43)."""
+    pytest.importorskip("torch")  # TrainConfig is the net extra's
+    for bad in (-1, 2.5, True, 2**64):
+        with pytest.raises(ValueError, match="seed must be an integer from 0"):
+            opnet.train.TrainConfig(seed=bad)
+    assert opnet.train.TrainConfig(seed=np.int64(2)).seed == 2
+    a_file = tmp_path / "results"
+    a_file.write_text("")
+    with pytest.raises(ValueError, match="results is a file; give a directory path"):
+        opnet.train.fit(tiny_collection(), epochs=1, hidden=8, run_dir=a_file, progress=False)
+
+
 def test_the_findings_options_name_bad_input(tmp_path, tiny_collection):
     """Seeds, comparisons, the reproduction's counts and folders (issues 40 and 43) answer bad input with errors
     that name the argument and the fix."""
@@ -427,9 +441,6 @@ def test_the_findings_options_name_bad_input(tmp_path, tiny_collection):
             RunSpec(seeds=bad)
     with pytest.raises(TypeError, match=r"tuple\(range\(3\)\)"):
         RunSpec(seeds=3)  # a count where the seeds are listed: the fix spelled out
-    for bad in (-1, 2.5, True, 2**64):
-        with pytest.raises(ValueError, match="seed must be an integer from 0"):
-            opnet.train.TrainConfig(seed=bad)
     for field in ("seeds", "jobs"):
         for bad in (0, -2, "x", 1.5):
             with pytest.raises(ValueError, match=f"{field} must be a count"):
@@ -463,12 +474,10 @@ def test_the_findings_options_name_bad_input(tmp_path, tiny_collection):
     for bad in ("d_Q", "n"):  # n_shapes is a count, not a metric
         with pytest.raises(ValueError, match=f"metric '{bad}' is not one of the row's per-shape metrics \\(d_R\\)"):
             compare([dict(r, n_shapes=2) for r in rows], "a", "b", metric=bad)
-    assert opnet.train.TrainConfig(seed=np.int64(2)).seed == 2 and type(RunSpec(seeds=[np.int64(1)]).seeds[0]) is int
+    assert type(RunSpec(seeds=[np.int64(1)]).seeds[0]) is int
     with pytest.raises(ValueError, match="factor must be a number > 0"):
         compare(rows, "a", "b", factor=0)
     a_file = tmp_path / "results"
     a_file.write_text("")
     with pytest.raises(ValueError, match="results is a file; give a folder"):
         reproduce.reproduce("quick", a_file)
-    with pytest.raises(ValueError, match="results is a file; give a directory path"):
-        opnet.train.fit(tiny_collection(), epochs=1, hidden=8, run_dir=a_file, progress=False)

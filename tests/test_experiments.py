@@ -9,7 +9,6 @@ import sys
 
 import numpy as np
 import pytest
-import torch
 
 import opnet
 from opnet import reproduce
@@ -402,6 +401,7 @@ def test_reproduce_records_provenance_keeps_current_rows_and_measures_stale_ones
 def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules, tmp_path, monkeypatch):
     """--jobs 2 trains every network in two other processes before the plan loads them; the rows are those of one
     process, and the ablation's A+E+C at depth 1 is Table 1's Int+Ext training, not a second one."""
+    torch = pytest.importorskip("torch")
     from opnet.experiments import runner
 
     monkeypatch.setitem(plan.BUDGETS, "quick", dataclasses.replace(BUDGET, ablation_epochs=BUDGET.epochs))
