@@ -330,6 +330,7 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
             extra=extra,
             funcchar=refine,
             device=ws.device,
+            labels={o.entry.name: ws.data("labels") for o in decoders if o.entry.trained_on == "labels"},
         )
     elif seeds > 1:  # each seed's networks on the same questions and paths, summarised with intervals
         options = dict(refine=refine, device=ws.device, out=figures, progress=ws.progress)

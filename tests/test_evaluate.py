@@ -396,6 +396,18 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_
     assert f"- OperatorNet (Ext): {1e4 * get['5k', 'computed', 'OperatorNet (Ext)']:.3g}, {ratio:.1f}×" in md
     for name in ("discretisation", "generalisation"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
+    # the paper's appendix: a network trained with 2k-vertex labels from the 1k operators, measured on the 2k shapes
+    labels = opnet.data.labels_collection(few, "2k", root=data)
+    entry = plan["labels-2k"]
+    (folder,) = (tmp_path / "runs").glob("labels-2k-A+E+C-d1-*")
+    config = json.loads((folder / "config.json").read_text())
+    assert config["data"]["fingerprint"] == train.collection_fingerprint(labels, opnet.KINDS)
+    idx = reproduce.discretisation_indices(few, budget)
+    net = train.load_model(folder / "best.pt", device="cpu")
+    sub = labels.subset(idx)
+    (exact,) = evaluate.evaluate(sub, [evaluate.operatornet_method(net, sub, "x")], ("test",))
+    (row,) = [r for r in disc if r["entry"] == "labels-2k" and r["resolution"] == "1k"]
+    assert row["d_R"] == pytest.approx(exact["d_R"]) and row["labels"] == "2k" and row["method"] == entry.name
     # a network of several seeds decodes with each: one row per encoding over them, each seed's mean as alone
     from opnet.experiments.runner import train_run
 

@@ -192,3 +192,26 @@ def test_three_way_mapped_deals_the_training_shapes_to_three_encodings(humans, m
     }
     with pytest.raises(ValueError, match="collection's shapes in its order"):
         opnet.data.three_way_mapped(humans, coarse.subset(np.arange(5)))
+
+
+def test_labels_on_the_2k_mesh_are_the_generators_shapes_with_the_base_operators(few, tmp_path, monkeypatch):
+    """The finer labels of the paper's appendix: each shape's 2k-vertex version as vertices and faces, the base's
+    operators unchanged; cached, and refused for a resolution that is the base's or a collection without meshes."""
+    from opnet.data import generate_shapes, humans, labels_collection
+
+    labels = labels_collection(few, "2k", root=tmp_path)
+    params = few.params
+    truth = generate_shapes(few, params["phenotypes"], params["controls"], resolution="2k")
+    assert labels.vertices.shape == (len(few), len(humans.human_faces("2k")) // 2 + 2, 3)  # closed genus 0
+    np.testing.assert_allclose(labels.vertices, truth, atol=1e-6)
+    assert np.array_equal(labels.faces, humans.human_faces("2k")) and labels.vertices.dtype == few.vertices.dtype
+    assert np.array_equal(labels.operators, few.operators) and np.array_equal(labels.split, few.split)
+    assert labels.meta["labels_resolution"] == "2k" and labels.base_basis is few.base_basis
+    monkeypatch.setattr(mapped_module, "generate_shapes", lambda *a, **k: pytest.fail("built again"))
+    again = labels_collection(few, "2k", root=tmp_path)
+    np.testing.assert_array_equal(again.vertices, labels.vertices)
+    for bad in ("1k", "3k"):
+        with pytest.raises(ValueError, match=r"resolution must be one of \['2k', '5k'\]"):
+            labels_collection(few, bad, root=tmp_path)
+    with pytest.raises(ValueError, match="at its base resolution.*already on the 2k mesh"):
+        labels_collection(labels, "5k", root=tmp_path)  # labels of labels

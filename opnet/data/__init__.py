@@ -30,7 +30,7 @@ Layers, each importing only from those before it (``tests/test_data_layers.py`` 
 from . import animals, toy
 from .folder import load_folder
 from .generators import generate_shapes, load_collection
-from .mapped import half_mapped, mapped_collection, three_way_mapped
+from .mapped import half_mapped, labels_collection, mapped_collection, three_way_mapped
 from .profiles import PROFILES, Profile, profile, profile_of, register_profile
 from .splits import furthest_point_subset, hausdorff, make_splits
 from .storage import SPLITS, Collection, CollectionError, default_root, read_collection, save_collection
@@ -47,6 +47,7 @@ __all__ = [
     "read_collection",
     "save_collection",
     "mapped_collection",
+    "labels_collection",
     "half_mapped",
     "three_way_mapped",
     "Profile",

@@ -24,6 +24,7 @@ and the parts are removed once the collection is saved.
 from __future__ import annotations
 
 import hashlib
+import warnings
 import zipfile
 from dataclasses import replace
 from pathlib import Path
@@ -49,7 +50,7 @@ from .storage import (
     save_or_warn,
 )
 
-__all__ = ["mapped_collection", "half_mapped", "three_way_mapped", "MAPS", "MAP_K"]
+__all__ = ["mapped_collection", "labels_collection", "half_mapped", "three_way_mapped", "MAPS", "MAP_K"]
 
 #: How the shapes' other triangulation is mapped onto the base.
 MAPS = ("computed", "true")
@@ -169,6 +170,76 @@ def mapped_collection(
     if save_or_warn(out, stem):  # else the parts stay, and the next call assembles them without recomputing
         _remove_parts(stem)
     return out
+
+
+def labels_collection(collection: Collection, resolution: str = "2k", *, root=None, rebuild: bool = False):
+    """``collection``'s shapes with the base's operators as they are, but each shape's vertices and faces those of its
+    ``resolution`` mesh: what a network trained with finer labels decodes to (the paper's appendix, the third row of
+    its figure of other discretisations: OperatorNet trained on 2k-vertex labels from the 1k base's operators).
+
+    Parameters
+    ----------
+    collection : Collection
+        A generated collection at its base resolution whose profile has other triangulations (the 1k humans).
+    resolution : str
+        The labels' mesh: one of :data:`opnet.data.humans.RESOLUTIONS` other than the base's.
+    root, rebuild
+        Where it is cached (default :func:`opnet.data.default_root`), and whether to build it again.
+
+    Returns
+    -------
+    Collection
+        ``vertices`` ``(N, n_resolution, 3)`` in ``collection``'s dtype (metres,
+        :func:`~opnet.data.generators.generate_shapes` with ``resolution``), ``faces``
+        ``humans.human_faces(resolution)``; ``operators``, splits, ``params`` and the base as ``collection``'s;
+        ``meta`` gains ``labels_resolution``. Seconds per hundred shapes to build; the vertices are cached under
+        ``root`` (``<collection>-labels<resolution>-<hash>.npy``, written atomically).
+    """
+    if not isinstance(collection, Collection):
+        raise TypeError(f"collection must be an opnet.data.Collection, got {type(collection).__name__}.")
+    p = profile_of(generated_name(collection))
+    base = collection.meta.get("resolution")
+    if not p.computed_maps or base != p.resolutions[0] or "labels_resolution" in collection.meta:
+        finer = collection.meta.get("labels_resolution")
+        raise ValueError(
+            "labels on another mesh are made from a generated collection at its base resolution whose profile has "
+            f"other triangulations (e.g. the 1k humans); this one is the {p.name} at {base!r}"
+            + (f", its labels already on the {finer} mesh." if finer else ".")
+        )
+    if resolution not in humans.RESOLUTIONS or resolution == base:
+        others = [r for r in humans.RESOLUTIONS if r != base]
+        raise ValueError(f"resolution must be one of {others}, got {resolution!r}.")
+    from .anny_adapter import model_code_version
+
+    h = hashlib.sha256(f"labels-{_FORMAT}-{model_code_version()}-{resolution}".encode())
+    for a in (collection.params["phenotypes"], collection.params["controls"], collection.operators):
+        h.update(np.ascontiguousarray(a).data)
+    root = Path(root) if root is not None else default_root()
+    path = root / f"{stem_name(collection.meta)}-labels{resolution}-{h.hexdigest()[:12]}.npy"
+    faces = humans.human_faces(resolution)
+    shape = (len(collection), int(faces.max()) + 1, 3)
+    vertices = None
+    if not rebuild and path.is_file():  # written atomically: a whole file or none
+        try:
+            vertices = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise CollectionError(f"{path} cannot be read ({exc}); delete it or pass rebuild=True.") from None
+        if vertices.shape != shape or vertices.dtype != collection.vertices.dtype:
+            raise CollectionError(
+                f"{path} holds {vertices.shape} {vertices.dtype}, not {shape} {collection.vertices.dtype}; delete it "
+                "or pass rebuild=True."
+            )
+    if vertices is None:
+        check_root(root, int(np.prod(shape)) * collection.vertices.itemsize)
+        params = collection.params
+        vertices = generate_shapes(collection, params["phenotypes"], params["controls"], resolution=resolution)
+        vertices = vertices.astype(collection.vertices.dtype)
+        try:
+            atomic_write(path, lambda f: np.save(f, vertices, allow_pickle=False))
+        except OSError as exc:  # e.g. the disk filled up meanwhile: the built labels are returned all the same
+            warnings.warn(f"the labels could not be cached at {path} ({exc}); they will be built again next time.")
+    # the shapes' faces are the labels' mesh (not stored: a Collection on disk holds the base's faces)
+    return replace(collection, vertices=vertices, faces=faces, meta=dict(collection.meta, labels_resolution=resolution))
 
 
 def half_mapped(collection: Collection, mapped: Collection) -> Collection:

@@ -40,6 +40,7 @@ __all__ = [
     "ABLATION_GRIDS",
     "REFINE_SETS",
     "COMP_RESOLUTION",
+    "LABELS_RESOLUTION",
     "spec",
     "bodies_group",
     "declare",
@@ -118,9 +119,12 @@ PRESETS = tuple(DATA_PRESETS)
 PARTS = ("table1", "applications", "refine", "maps", "bodies", "ablation", "points")
 #: What an entry is trained or tested on: the collection (``base``), its operators through computed maps of the
 #: :data:`COMP_RESOLUTION` meshes (``comp``), half exact and half ``comp`` (``half``, :func:`opnet.data.half_mapped`),
-#: a third exact, a sixth through 5k maps, the rest ``comp`` (``three``, :func:`opnet.data.three_way_mapped`), or the
-#: collection with FuncChar's offset channels (``offsets``).
-DATA = ("base", "comp", "half", "three", "offsets")
+#: a third exact, a sixth through 5k maps, the rest ``comp`` (``three``, :func:`opnet.data.three_way_mapped`), the
+#: collection with FuncChar's offset channels (``offsets``), or its shapes on the :data:`LABELS_RESOLUTION` mesh as
+#: labels, from the base's operators (``labels``, :func:`opnet.data.labels_collection`).
+DATA = ("base", "comp", "half", "three", "offsets", "labels")
+#: The mesh of the finer labels of the paper's appendix (OperatorNet trained with 2k-vertex labels).
+LABELS_RESOLUTION = "2k"
 #: The mesh whose computed maps the "Comp" rows use.
 COMP_RESOLUTION = "2k"
 #: The test sets of the operator-matching rows (at most ``Budget.refine_shapes`` shapes of each).
@@ -378,6 +382,18 @@ def declare(budget: Budget, *, ablation_sets: dict | None = None, seeds: int = 1
                 other_meshes=True,
             )
         )
+    name = f"OperatorNet, {LABELS_RESOLUTION}-vertex labels (Int+Ext)"  # the paper's appendix: finer labels
+    entries.append(
+        Entry(
+            f"labels-{LABELS_RESOLUTION}",
+            name,
+            spec(f"labels-{LABELS_RESOLUTION}", budget, KINDS, name=name, **rep),
+            trained_on="labels",
+            part="maps",
+            other_meshes=True,
+            fields=dict(labels=LABELS_RESOLUTION),
+        )
+    )
     for key, (name, draws, members) in MORE_BODIES.items():  # an ensemble of `members` seeds, or one network
         first = spec(bodies_group(**draws), budget, KINDS, variant="ours", name=name, **(rep if members == 1 else {}))
         runs = (first, *(replace(first, seed=s, name=f"{name}, seed {s}") for s in range(1, members)))

@@ -76,10 +76,13 @@ def _profile(context: dict | None):
 #: The rows standing for each row of the paper's Table 1 (:data:`~opnet.experiments.paper.PAPER_TABLE1`): the fields
 #: they have (:func:`matches`), from the plan's entries (:data:`opnet.experiments.plan.PAPER_ROWS`).
 PAPER_TABLE1_ROWS = PAPER_ROWS
-#: The groups of the networks trained and tested on operators through computed maps (the plan's entries tested on
-#: ``comp``: Table 1's "Comp" rows and those beside them): the README's headline leaves them out, as the paper's does.
+#: The groups of the networks tested on other data than the collection itself: on operators through computed maps
+#: (the plan's entries tested on ``comp``: Table 1's "Comp" rows and those beside them; the README's headline leaves
+#: them out, as the paper's does) or on labels of another mesh (``labels``: measured on other vertices).
 MAPPED_GROUPS = tuple(
-    dict.fromkeys(e.spec.group for e in declare(BUDGETS["quick"]).entries if e.runs and e.tested_on == "comp")
+    dict.fromkeys(
+        e.spec.group for e in declare(BUDGETS["quick"]).entries if e.runs and e.tested_on in ("comp", "labels")
+    )
 )
 _PAPER = PAPER_TABLE1_ROWS["OperatorNet (Int+Ext)"]  # the paper's network: Table 1's reference
 _OURS = dict(_PAPER, variant="ours")  # this project's variant, on the same input
@@ -590,7 +593,17 @@ def discretisation_markdown(rows: list[dict]) -> list[str]:
         "by the generator's true correspondence or by a computed map (`opnet.matching.compute_map`), encoded "
         "through the map and decoded by each network; d_R ×10⁻⁴ against the 1k shapes (median in brackets). "
         "Map error: mean distance between where the computed and the true map send a vertex. *1k exact*: the "
-        "same shapes' own operators.",
+        "same shapes' own operators."
+        + "".join(
+            sorted(
+                {
+                    f" {r['method']} decodes to the {r['labels']} mesh (the paper's appendix: finer labels from the "
+                    f"1k operators) and is measured against the same shapes on it."
+                    for r in disc
+                    if r.get("labels")
+                }
+            )
+        ),
         "",
         "| mesh | map | map error (cm) | " + " | ".join(names[n] for n in nets) + " |",
         "|---" * (3 + len(nets)) + "|",

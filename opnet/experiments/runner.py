@@ -284,9 +284,9 @@ class Workspace:
         return self._data[ident]
 
     def _build(self, key, draws):
-        from ..data import half_mapped, mapped_collection, three_way_mapped
+        from ..data import half_mapped, labels_collection, mapped_collection, three_way_mapped
         from .baselines import FUNCCHAR
-        from .plan import COMP_RESOLUTION
+        from .plan import COMP_RESOLUTION, LABELS_RESOLUTION
 
         coll, root, progress = self.coll, self.data_root, self.progress
         if draws:  # the same collection (preset, resolution, seed), its training shapes drawn otherwise
@@ -309,6 +309,8 @@ class Workspace:
             return three_way_mapped(coll, self.data("comp"), "5k", root=root, progress=progress)
         if key == "offsets":
             return coll.with_channels([*dict.fromkeys([*coll.channels, *FUNCCHAR])], progress=False)
+        if key == "labels":
+            return labels_collection(coll, LABELS_RESOLUTION, root=root)
         raise ValueError(f"unknown data {key!r}.")
 
     def fingerprint(self, collection) -> str:

@@ -66,6 +66,7 @@ def discretisation_rows(
     extra: dict | None = None,
     funcchar: bool = False,
     device="cpu",
+    labels: dict | None = None,
 ) -> list[dict]:
     """Reconstructions of test shapes given on other triangulations: rows with ``"table"`` ``"discretisation"``.
 
@@ -82,7 +83,10 @@ def discretisation_rows(
     ``out``, writes ``discretisation.png`` there (:func:`discretisation_figure` of three 5k shapes, by the networks
     named in ``shown``, default all). ``funcchar``: also FuncChar (Int+Ext)'s geometric reconstruction of the 5k
     shapes through the computed maps (the paper's appendix, Fig. 12's bottom row; ``baseline`` ``"funcchar"``, at most
-    ``budget.refine_shapes`` shapes, on ``device``), its four channels carried through maps of their own.
+    ``budget.refine_shapes`` shapes, on ``device``), its four channels carried through maps of their own. ``labels``:
+    name → the collection a network of ``nets`` was trained on when its labels are on another mesh
+    (:func:`opnet.data.labels_collection` of ``coll``: the paper's network trained with 2k-vertex labels); it decodes
+    the same encodings and is measured against those shapes on that mesh.
     """
     from ..data import mapped_collection
     from ..data.mapped import MAP_K
@@ -101,8 +105,9 @@ def discretisation_rows(
         where = dict(table="discretisation", resolution=res, maps=maps, map_error=error)
         for name, members in decoders.items():
             info = {**_run_fields(members[0]), **(fields or {}).get(name, {}), **where}
+            on = _labelled(c, (labels or {}).get(name), idx)
             each = [
-                evaluate(c, [operatornet_method(_network(m), c, name, info=info | _seed(m, members))], ("test",),
+                evaluate(on, [operatornet_method(_network(m), on, name, info=info | _seed(m, members))], ("test",),
                          extra=extra, per_shape=True)[0]
                 for m in members
             ]  # fmt: skip
@@ -125,6 +130,16 @@ def discretisation_rows(
         plotter.screenshot(str(Path(out) / "discretisation.png"))
         plotter.close()
     return rows
+
+
+def _labelled(encoded, labels, idx):
+    """``encoded`` (shapes ``idx`` of a collection, with their operators) with the vertices and faces of ``labels``
+    (:func:`opnet.data.labels_collection` of that collection: the same shapes on another mesh), or as it is.
+    """
+    if labels is None:
+        return encoded
+    meta = dict(encoded.meta, labels_resolution=labels.meta["labels_resolution"])
+    return replace(encoded, vertices=labels.vertices[idx], faces=labels.faces, meta=meta)
 
 
 def _is_run(member) -> bool:
