@@ -233,7 +233,7 @@ def plot_reconstructions(gt, reconstructions: dict, faces, *, titles=None, clim=
     )
 
 
-def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, camera="xz", zoom=1.2):
+def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, labels=None, camera="xz", zoom=1.2):
     """Shapes given on another triangulation, their maps onto the base, and their reconstructions; one per row.
 
     Columns: each mesh (e.g. 5k vertices) painted with a function of the base carried through its map
@@ -246,6 +246,8 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
     surface_maps : list of N :class:`opnet.matching.SurfaceMap` onto one base.
     reconstructions : dict name → (N, n_base, 3) vertices on the base's triangulation.
     truth : (N, n_base, 3) the shapes on the base's triangulation.
+    labels : dict name → ``(truth (N, n, 3), faces (m, 3))``, optional: for a reconstruction on another mesh than the
+        base's (a network trained with finer labels), the shapes it is measured against and that mesh's triangles.
     """
     from .matching import SurfaceMap
 
@@ -257,7 +259,11 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
     base = surface_maps[0].base.mesh
     x, z = base.vertices[:, 0], base.vertices[:, 2]  # +x the body's left, +z up
     painted = np.sign(x) * (1 + (z - z.min()) / np.ptp(z))
-    errors = {name: aligned_errors(r, truth) for name, r in reconstructions.items()}
+    labels = labels or {}
+    unknown = set(labels) - set(reconstructions)
+    if unknown:
+        raise ValueError(f"labels names {sorted(unknown)}, which are not reconstructions ({list(reconstructions)}).")
+    errors = {name: aligned_errors(r, labels.get(name, (truth,))[0]) for name, r in reconstructions.items()}
     top = error_top(e for _, e in errors.values())
     factor, bar = error_scale(top)
     meshes, scalars, titles, cmaps, clims = [], [], [], [], []
@@ -271,7 +277,7 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, c
         cmaps += ["coolwarm", "coolwarm"]
         clims += [(-2.0, 2.0), (-2.0, 2.0)]
         for name, (aligned, err) in errors.items():
-            meshes.append((aligned[i], base.faces))
+            meshes.append((aligned[i], labels[name][1] if name in labels else base.faces))
             scalars.append(factor * err[i])
             titles.append(f"{name}: mean {1000 * err[i].mean():.1f} mm")
             cmaps.append("magma_r")

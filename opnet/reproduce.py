@@ -326,7 +326,11 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
             data_root=ws.data_root,
             progress=ws.progress,
             out=figures,
-            shown=[o.entry.name for o in decoders if o.entry.key in ("int+ext", "comp-int+ext")],
+            shown=[
+                o.entry.name
+                for o in decoders
+                if o.entry.key in ("int+ext", "comp-int+ext") or o.entry.trained_on == "labels"
+            ],
             extra=extra,
             funcchar=refine,
             device=ws.device,

@@ -192,12 +192,14 @@ def refinement_figures(out: Path, coll, net_method, steps: int, *, device="cpu",
     plotter.close()
 
 
-def discretisation_figure(mapped, nets: dict, shapes: int = 3):
+def discretisation_figure(mapped, nets: dict, shapes: int = 3, *, labels: dict | None = None):
     """The ``shapes`` shapes of ``mapped`` (:func:`opnet.data.mapped_collection` with computed maps) that are farthest
     from the base (the most deformed), on their own mesh through their maps onto the base, and each network's
     reconstruction (name → network) coloured by its error: a pyvista plotter
     (:func:`opnet.plotting.plot_mapped_reconstructions`; the maps are computed again, as they were for its operators:
-    seconds each).
+    seconds each). ``labels``: name → ``mapped`` with the vertices and faces a network of ``nets`` decodes to when
+    they are another mesh's (a network trained with finer labels, :func:`opnet.data.labels_collection`), the shapes
+    it is measured against.
     """
     from ..data import Collection
     from ..data.generators import generate_shapes
@@ -221,8 +223,11 @@ def discretisation_figure(mapped, nets: dict, shapes: int = 3):
     fine = generate_shapes(mapped, mapped.params["phenotypes"][far], mapped.params["controls"][far], resolution=res)
     spectrum = eigenbasis(mapped.base_basis.mesh, k)
     maps = [compute_map(mapped.base_basis, Mesh(v, human_faces(res)), k=k, base_spectrum=spectrum) for v in fine]
-    recon = {name: operatornet_method(net, mapped, name).reconstruct(far) for name, net in nets.items()}
-    return plot_mapped_reconstructions(maps, recon, mapped.vertices[far])
+    labels = labels or {}
+    on = {name: labels.get(name, mapped) for name in nets}
+    recon = {name: operatornet_method(net, on[name], name).reconstruct(far) for name, net in nets.items()}
+    other = {name: (c.vertices[far], c.faces) for name, c in labels.items()}
+    return plot_mapped_reconstructions(maps, recon, mapped.vertices[far], labels=other)
 
 
 def generalisation_figure(rows: list[dict]):

@@ -125,7 +125,9 @@ def discretisation_rows(
     if out is not None:
         names = [name for name in shown if name in decoders] or list(decoders)
         picked = {name: _network(decoders[name][0]) for name in names}  # a replicated one: its first seed
-        plotter = discretisation_figure(encodings["5k", "computed"], picked)
+        fine = encodings["5k", "computed"]
+        on = {name: _labelled(fine, lab, idx) for name, lab in (labels or {}).items() if name in picked}
+        plotter = discretisation_figure(fine, picked, labels=on)
         Path(out).mkdir(parents=True, exist_ok=True)
         plotter.screenshot(str(Path(out) / "discretisation.png"))
         plotter.close()
