@@ -40,7 +40,13 @@ def test_every_shape_is_the_template_one_closed_genus_0_surface_of_good_triangle
     worst = face_quality(quick.vertices.astype(np.float64), f).min(-1)
     assert worst.min() >= animals.MIN_QUALITY * 0.99  # float32 storage
     refused = sum(quick.meta["refused"].values())
-    assert len(quick.vertices) + refused == animals.shape_count("quick") and refused < 0.05 * len(quick.vertices)
+    assert len(quick.vertices) + refused == animals.shape_count("quick")
+    # once (of many builds) 36 were refused: the message keeps what tells a template or a species apart
+    templates = {s: round(float(np.abs(r.vertices).sum()), 6) for s, r in zip(bodies.species, bodies.rigs)}
+    assert refused < 0.05 * len(quick.vertices), (
+        f"refused by clip {quick.meta['refused']}; template {n} vertices; each species' registered body, sum of "
+        f"|coordinates| (m): {templates}"
+    )
     assert np.allclose(quick.base_basis.mesh.vertices, bodies.rigs[0].vertices)  # the base: the template at rest
     assert set(quick.params["motion"]) == {*bodies.clips, "random"} and len(bodies.clips) == 9
 
