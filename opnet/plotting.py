@@ -244,7 +244,8 @@ def plot_mapped_reconstructions(surface_maps, reconstructions: dict, truth, *, l
     Parameters
     ----------
     surface_maps : list of N :class:`opnet.matching.SurfaceMap` onto one base.
-    reconstructions : dict name → (N, n_base, 3) vertices on the base's triangulation.
+    reconstructions : dict name → (N, n_base, 3) vertices on the base's triangulation (or on the mesh ``labels``
+        gives for that name).
     truth : (N, n_base, 3) the shapes on the base's triangulation.
     labels : dict name → ``(truth (N, n, 3), faces (m, 3))``, optional: for a reconstruction on another mesh than the
         base's (a network trained with finer labels), the shapes it is measured against and that mesh's triangles.

@@ -430,7 +430,7 @@ def test_a_trainings_seed_and_folder_name_bad_input(tmp_path, tiny_collection):
         opnet.train.fit(tiny_collection(), epochs=1, hidden=8, run_dir=a_file, progress=False)
 
 
-def test_the_findings_options_name_bad_input(tmp_path, tiny_collection):
+def test_the_findings_options_name_bad_input(tmp_path):
     """Seeds, comparisons, the reproduction's counts and folders (issues 40 and 43) answer bad input with errors
     that name the argument and the fix."""
     from opnet import reproduce

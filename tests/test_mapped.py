@@ -196,8 +196,11 @@ def test_three_way_mapped_deals_the_training_shapes_to_three_encodings(humans, m
 
 def test_labels_on_the_2k_mesh_are_the_generators_shapes_with_the_base_operators(few, tmp_path, monkeypatch):
     """The finer labels of the paper's appendix: each shape's 2k-vertex version as vertices and faces, the base's
-    operators unchanged; cached, and refused for a resolution that is the base's or a collection without meshes."""
+    operators unchanged; cached (a file of other shapes refused); refused for a resolution that is the base's, for
+    labels of labels, and as a collection to save or add channels to."""
     from opnet.data import generate_shapes, humans, labels_collection
+    from opnet.data.generators import resolution_map
+    from opnet.data.storage import CollectionError
 
     labels = labels_collection(few, "2k", root=tmp_path)
     params = few.params
@@ -215,3 +218,17 @@ def test_labels_on_the_2k_mesh_are_the_generators_shapes_with_the_base_operators
             labels_collection(few, bad, root=tmp_path)
     with pytest.raises(ValueError, match="at its base resolution.*already on the 2k mesh"):
         labels_collection(labels, "5k", root=tmp_path)  # labels of labels
+    # the same bodies in the same poses as the 1k shapes: the generator's correspondence carries one onto the other
+    carried = np.stack([resolution_map(few, "2k") @ v for v in few.vertices.astype(np.float64)])
+    gap = np.linalg.norm(carried - labels.vertices, axis=-1)
+    assert np.median(gap) < 0.01, np.median(gap)  # metres
+    with pytest.raises(ValueError, match="is not saved: save its source"):
+        opnet.data.save_collection(labels, tmp_path / "saved")
+    with pytest.raises(opnet.ChannelError, match="add channel 'offset_area' to the source"):
+        labels.with_channels(["area", "offset_area"], progress=False)
+    (cached,) = tmp_path.glob("*-labels2k-*.npy")
+    np.save(cached, labels.vertices[:1])  # another file under its name
+    monkeypatch.undo()
+    with pytest.raises(CollectionError, match="delete it or pass rebuild=True"):
+        labels_collection(few, "2k", root=tmp_path)
+    np.testing.assert_array_equal(labels_collection(few, "2k", root=tmp_path, rebuild=True).vertices, labels.vertices)

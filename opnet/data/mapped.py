@@ -193,7 +193,8 @@ def labels_collection(collection: Collection, resolution: str = "2k", *, root=No
         :func:`~opnet.data.generators.generate_shapes` with ``resolution``), ``faces``
         ``humans.human_faces(resolution)``; ``operators``, splits, ``params`` and the base as ``collection``'s;
         ``meta`` gains ``labels_resolution``. Seconds per hundred shapes to build; the vertices are cached under
-        ``root`` (``<collection>-labels<resolution>-<hash>.npy``, written atomically).
+        ``root`` (``<collection>-labels<resolution>-<hash>.npy``, written atomically). It is not saved as a
+        collection, given new channels or refined (those need the base's mesh): each says so.
     """
     if not isinstance(collection, Collection):
         raise TypeError(f"collection must be an opnet.data.Collection, got {type(collection).__name__}.")
@@ -211,8 +212,10 @@ def labels_collection(collection: Collection, resolution: str = "2k", *, root=No
         raise ValueError(f"resolution must be one of {others}, got {resolution!r}.")
     from .anny_adapter import model_code_version
 
-    h = hashlib.sha256(f"labels-{_FORMAT}-{model_code_version()}-{resolution}".encode())
-    for a in (collection.params["phenotypes"], collection.params["controls"], collection.operators):
+    dtype = collection.vertices.dtype
+    h = hashlib.sha256(f"labels-{_FORMAT}-{model_code_version()}-{resolution}-{dtype.str}".encode())
+    for a in (collection.params["phenotypes"], collection.params["controls"]):  # what the shapes are made from
+        h.update(f"{a.dtype.str}{a.shape}".encode())
         h.update(np.ascontiguousarray(a).data)
     root = Path(root) if root is not None else default_root()
     path = root / f"{stem_name(collection.meta)}-labels{resolution}-{h.hexdigest()[:12]}.npy"
@@ -222,7 +225,7 @@ def labels_collection(collection: Collection, resolution: str = "2k", *, root=No
     if not rebuild and path.is_file():  # written atomically: a whole file or none
         try:
             vertices = np.load(path, allow_pickle=False)
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, EOFError) as exc:
             raise CollectionError(f"{path} cannot be read ({exc}); delete it or pass rebuild=True.") from None
         if vertices.shape != shape or vertices.dtype != collection.vertices.dtype:
             raise CollectionError(
@@ -237,9 +240,14 @@ def labels_collection(collection: Collection, resolution: str = "2k", *, root=No
         try:
             atomic_write(path, lambda f: np.save(f, vertices, allow_pickle=False))
         except OSError as exc:  # e.g. the disk filled up meanwhile: the built labels are returned all the same
-            warnings.warn(f"the labels could not be cached at {path} ({exc}); they will be built again next time.")
+            warnings.warn(
+                f"the labels could not be cached at {path} ({exc}); they will be built again next time.", stacklevel=2
+            )
     # the shapes' faces are the labels' mesh (not stored: a Collection on disk holds the base's faces)
-    return replace(collection, vertices=vertices, faces=faces, meta=dict(collection.meta, labels_resolution=resolution))
+    meta = dict(collection.meta, labels_resolution=resolution)
+    out = replace(collection, vertices=vertices, faces=faces, meta=meta)
+    out._instances.update(collection._instances)  # the inner products given to the source (replace drops them)
+    return out
 
 
 def half_mapped(collection: Collection, mapped: Collection) -> Collection:

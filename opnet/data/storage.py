@@ -380,6 +380,12 @@ class Collection:
         """One channel's operators ``(N, k, k)`` for every shape: read from the cache beside the stored collection
         when there, else computed (and cached).
         """
+        if "labels_resolution" in self.meta:
+            raise ChannelError(
+                f"this collection's vertices are its shapes on the {self.meta['labels_resolution']} mesh "
+                f"(opnet.data.labels_collection), not the base's; add channel {ip.name!r} to the source collection, "
+                "then call labels_collection on it."
+            )
         if "maps" in self.meta:
             raise ChannelError(
                 f"this collection's operators come through maps from its shapes' {self.meta.get('map_resolution')} "
@@ -451,6 +457,11 @@ def _tmp_files(stem: Path) -> list[Path]:
 
 def save_collection(coll: Collection, path) -> Path:
     """Write ``coll`` under the path ``path`` (data + manifest, see the module docstring); returns the manifest path."""
+    if "labels_resolution" in coll.meta:
+        raise ValueError(
+            f"a collection whose vertices are on the {coll.meta['labels_resolution']} mesh (opnet.data."
+            "labels_collection) is not saved: save its source, and call labels_collection again (it caches itself)."
+        )
     stem = _stem(path)
     stem.parent.mkdir(parents=True, exist_ok=True)
     arrays = dict(

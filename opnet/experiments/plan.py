@@ -188,6 +188,8 @@ class Entry:
             value = getattr(self, name)
             if value is not None and value not in DATA:
                 raise ValueError(f"entry {self.key!r}: {name} must be one of {DATA}, got {value!r}.")
+        if "labels" in (self.trained_on, self.tested_on) and not runs:
+            raise ValueError(f"entry {self.key!r}: only a network trains or tests on labels of another mesh.")
         if self.tested_on is None:  # a collection mixed of exact and mapped operators is tested like the Comp ones
             mixed = self.trained_on in ("half", "three")
             object.__setattr__(self, "tested_on", "comp" if mixed else self.trained_on)

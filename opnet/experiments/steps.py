@@ -140,8 +140,15 @@ def _labelled(encoded, labels, idx):
     """
     if labels is None:
         return encoded
+    params = encoded.params
+    if "labels_resolution" not in labels.meta or not all(
+        np.array_equal(labels.params[k][idx], params[k]) for k in ("phenotypes", "controls")
+    ):
+        raise ValueError("labels must be opnet.data.labels_collection of the collection whose shapes are decoded.")
     meta = dict(encoded.meta, labels_resolution=labels.meta["labels_resolution"])
-    return replace(encoded, vertices=labels.vertices[idx], faces=labels.faces, meta=meta)
+    out = replace(encoded, vertices=labels.vertices[idx], faces=labels.faces, meta=meta)
+    out._instances.update(encoded._instances)
+    return out
 
 
 def _is_run(member) -> bool:

@@ -127,7 +127,7 @@ TARGETS = (
     Target(
         "discretisation-5k",
         "5k → 1k through computed maps",
-        dict(resolution="5k", maps="computed"),
+        dict(resolution="5k", maps="computed", labels=None),  # the networks decoding to the 1k mesh
         3.0,
         False,
         _PROJECT,
