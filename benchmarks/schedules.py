@@ -17,9 +17,11 @@ throughput of one network on two threads: benchmarks/results/training.json). ``-
 
 Run::
 
-    .venv/bin/python benchmarks/schedules.py --preset quick --out build/schedules-quick --jobs 2 --threads 1
+    .venv/bin/python benchmarks/schedules.py --preset quick --out build/schedules-quick --jobs 2 --threads 1 \\
+        --candidates constant-60 onecycle-60 constant-120 onecycle-120 onecycle-120-lr3e-3 onecycle-60-batch8 \\
+        --json results/schedules-quick.json
     .venv/bin/python benchmarks/schedules.py --preset default --out ~/.cache/opnet/schedules-default --jobs 2 \\
-        --threads 1 --json results/schedules.json
+        --threads 1 --candidates constant-60 onecycle-30 onecycle-60 --json results/schedules.json
 """
 
 from __future__ import annotations
@@ -36,11 +38,17 @@ from shape_differences import load_span, measured, run_benchmark, torch_machine_
 
 import opnet
 
-#: name → (schedule, epochs): the candidates (the preset's batch size and peak learning rate for all).
+#: name → (schedule, epochs[, overrides]): the candidates (the preset's batch size and peak learning rate unless the
+#: overrides set ``lr`` or ``batch_size``).
 CANDIDATES = {
     "constant-60": ("constant", 60),
     "onecycle-30": ("onecycle", 30),
     "onecycle-60": ("onecycle", 60),
+    # for quick's 296 training shapes, where 60 epochs of batch 16 are about 1100 steps: more steps, a higher peak
+    "constant-120": ("constant", 120),
+    "onecycle-120": ("onecycle", 120),
+    "onecycle-120-lr3e-3": ("onecycle", 120, dict(lr=3e-3)),
+    "onecycle-60-batch8": ("onecycle", 60, dict(batch_size=8)),
 }
 
 
@@ -64,14 +72,14 @@ def _train(preset: str, out: str, name: str, seed: int, threads: int | None) -> 
 
     if threads:
         torch.set_num_threads(threads)
-    schedule, epochs = CANDIDATES[name]
+    schedule, epochs, *more = CANDIDATES[name]
     budget = BUDGETS[preset]
+    settings = dict(batch_size=budget.batch_size, lr=budget.lr) | (more[0] if more else {})
     coll = opnet.data.load_collection("humans", preset, progress=False)
     _, hist = opnet.train.fit(
         coll,
         epochs=epochs,
-        batch_size=budget.batch_size,
-        lr=budget.lr,
+        **settings,
         seed=seed,
         schedule=schedule,
         run_dir=f"{out}/{name}-s{seed}",
@@ -82,6 +90,7 @@ def _train(preset: str, out: str, name: str, seed: int, threads: int | None) -> 
         candidate=name,
         schedule=schedule,
         epochs=epochs,
+        **settings,
         seed=seed,
         **conv.as_dict(),
         train_s=round(sum(h["seconds"] for h in hist), 1),
@@ -148,6 +157,8 @@ def summary(rows: list[dict]) -> dict:
             seeds=len(mine),
             epochs=mine[0]["epochs"],
             schedule=mine[0]["schedule"],
+            lr=mine[0].get("lr"),
+            batch_size=mine[0].get("batch_size"),
             seconds=float(np.mean([r["train_s"] for r in mine])),
             tail=(min(r["tail_ratio"] for r in mine), max(r["tail_ratio"] for r in mine)),
         )
@@ -176,18 +187,21 @@ def report(result: dict) -> str:
     s = summary(rows)
     out = [
         f"humans at `{c['preset']}` ({c['train_shapes']} `train`, {c['val_shapes']} `val` shapes), the paper's "
-        f"network (Int+Ext, depth {c['depth']}), batch {c['batch_size']}, peak lr {c['lr']:g}, seeds "
+        f"network (Int+Ext, depth {c['depth']}), batch {c['batch_size']} and peak lr {c['lr']:g} unless the candidate "
+        f"sets them, seeds "
         f"{', '.join(map(str, c['seeds']))}: best `val` d_R ×10⁻⁴ (mean ± standard deviation over seeds, and the "
         "range), how many seeds converged (last 10 % of the epochs within 5 % of the run's best), the worst of those "
         "epochs over the run's best (the range over seeds), and the mean training time per seed.",
         "",
-        "| candidate | schedule | epochs | best val d_R | range | converged | last 10 % / best | train s |",
-        "|---|---|---:|---:|---:|---:|---:|---:|",
+        "| candidate | schedule | epochs | peak lr | batch | best val d_R | range | converged | last 10 % / best | "
+        "train s |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for name, v in s.items():
         std = "" if v["std"] is None else f" ± {1e4 * v['std']:.3f}"
+        lr, batch = v["lr"] or c["lr"], v["batch_size"] or c["batch_size"]  # older files: the preset's
         out.append(
-            f"| {name} | {v['schedule']} | {v['epochs']} | {1e4 * v['mean']:.3f}{std} | "
+            f"| {name} | {v['schedule']} | {v['epochs']} | {lr:g} | {batch} | {1e4 * v['mean']:.3f}{std} | "
             f"{1e4 * v['min']:.3f}–{1e4 * v['max']:.3f} | {v['n_converged']}/{v['seeds']} | "
             f"{v['tail'][0]:.2f}–{v['tail'][1]:.2f} | {v['seconds']:.0f} |"
         )

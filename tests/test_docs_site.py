@@ -26,6 +26,7 @@ RESULT_PAGES = {
     "scaling": "results",
     "variants": "results",
     "schedules": "results",
+    "schedules-quick": "results",
     "extrinsic": "results",
     "offset_channels": "inner_products",
     "generalisation": "results",

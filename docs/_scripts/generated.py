@@ -30,11 +30,12 @@ SHIPPED = BENCHMARKS / "results"
 
 def benchmark_report(name: str, result: dict | None = None) -> str:
     """The Markdown report of benchmark ``name`` (``benchmarks/<name>.py``) on ``result`` (default: its shipped
-    ``benchmarks/results/<name>.json``).
+    ``benchmarks/results/<name>.json``). A result of one script at other settings is named ``<script>-<what>``
+    (``schedules-quick``: ``benchmarks/schedules.py --preset quick``).
     """
     if str(BENCHMARKS) not in sys.path:
         sys.path.insert(0, str(BENCHMARKS))  # the scripts import each other by file name, as when run
-    module = importlib.import_module(name)
+    module = importlib.import_module(name.partition("-")[0])
     if result is None:
         result = json.loads((SHIPPED / f"{name}.json").read_text())
     return module.report(result)
