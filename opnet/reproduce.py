@@ -317,6 +317,7 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
     if kept and (figures is None or all((figures / f"{name}.png").is_file() for name in drawn)):
         return kept  # measured by an earlier call on these checkpoints and data, its figures there
     if key == "discretisation":
+        labels = {o.entry.name: ws.data("labels") for o in decoders if o.entry.trained_on == "labels"}
         rows = discretisation_rows(
             ws.coll,
             {o.entry.name: list(o.runs) if o.entry.replicated else o.runs[0].net for o in decoders},
@@ -327,14 +328,12 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
             progress=ws.progress,
             out=figures,
             shown=[
-                o.entry.name
-                for o in decoders
-                if o.entry.key in ("int+ext", "comp-int+ext") or o.entry.trained_on == "labels"
+                o.entry.name for o in decoders if o.entry.key in ("int+ext", "comp-int+ext") or o.entry.name in labels
             ],
             extra=extra,
             funcchar=refine,
             device=ws.device,
-            labels={o.entry.name: ws.data("labels") for o in decoders if o.entry.trained_on == "labels"},
+            labels=labels,
         )
     elif seeds > 1:  # each seed's networks on the same questions and paths, summarised with intervals
         options = dict(refine=refine, device=ws.device, out=figures, progress=ws.progress)

@@ -227,16 +227,15 @@ def labels_collection(collection: Collection, resolution: str = "2k", *, root=No
             vertices = np.load(path, allow_pickle=False)
         except (OSError, ValueError, EOFError) as exc:
             raise CollectionError(f"{path} cannot be read ({exc}); delete it or pass rebuild=True.") from None
-        if vertices.shape != shape or vertices.dtype != collection.vertices.dtype:
+        if vertices.shape != shape or vertices.dtype != dtype:
             raise CollectionError(
-                f"{path} holds {vertices.shape} {vertices.dtype}, not {shape} {collection.vertices.dtype}; delete it "
-                "or pass rebuild=True."
+                f"{path} holds {vertices.shape} {vertices.dtype}, not {shape} {dtype}; delete it or pass rebuild=True."
             )
     if vertices is None:
-        check_root(root, int(np.prod(shape)) * collection.vertices.itemsize)
+        check_root(root, int(np.prod(shape)) * dtype.itemsize)
         params = collection.params
         vertices = generate_shapes(collection, params["phenotypes"], params["controls"], resolution=resolution)
-        vertices = vertices.astype(collection.vertices.dtype)
+        vertices = vertices.astype(dtype)
         try:
             atomic_write(path, lambda f: np.save(f, vertices, allow_pickle=False))
         except OSError as exc:  # e.g. the disk filled up meanwhile: the built labels are returned all the same
