@@ -1,5 +1,5 @@
-"""Atomic file writes, the clean-up of temporary files left by killed processes, and one writer per folder (shared
-by data, training and the reproduction).
+"""Atomic file writes, the clean-up of temporary files left by killed processes, one writer per folder (shared by
+data, training and the reproduction), and one builder at a time of a cache another library writes.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ __all__ = [
     "tmp_name",
     "remove_stale_tmp",
     "writer_lock",
+    "build_lock",
     "LOCK_NAME",
 ]
 
@@ -136,6 +137,28 @@ def writer_lock(folder, what: str):
             ) from None
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"{os.getpid()}\n{what}\n".encode(), 0)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
+
+@contextmanager
+def build_lock(path):
+    """Wait for, then hold, an exclusive lock on the file ``path`` (its folder created when missing): one process at a
+    time builds a cache whose writer is not atomic (anny's model data), so another waits and then reads the finished
+    file instead of a part of it. ``fcntl.flock``, released by the OS when the holder dies; no lock where ``fcntl`` is
+    missing (Windows).
+    """
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
         yield
     finally:
         os.close(fd)  # releases the lock

@@ -15,17 +15,20 @@ from opnet.data import animals  # noqa: E402
 from opnet.data.generators import generate_shapes  # noqa: E402
 from opnet.mesh import components, edge_face_counts, face_quality  # noqa: E402
 
-pytestmark = pytest.mark.slow  # registers ten species (about a minute), then builds in seconds
+pytestmark = pytest.mark.slow  # registers ten species (about a minute) where no earlier build is cached
 
 
 @pytest.fixture(scope="module")
-def root(tmp_path_factory):
+def animal_root(tmp_path_factory):
+    """A data folder of this module's own builds."""
     return tmp_path_factory.mktemp("animals")
 
 
 @pytest.fixture(scope="module")
-def quick(root):
-    return opnet.data.load_collection("animals", "quick", root=root, progress=False)
+def quick(quick_collection):
+    """The quick animals through opnet's data cache (conftest's ``quick_collection``): where notebooks 02 and 05 ran
+    first, as in ``make test``, their build is read, not made again (registering ten species takes about a minute)."""
+    return quick_collection("animals")
 
 
 def test_every_shape_is_the_template_one_closed_genus_0_surface_of_good_triangles(quick):
@@ -97,14 +100,16 @@ def test_the_generator_poses_bodies_again_and_blends_are_linear_in_the_posed_mes
         bodies.shapes(horse[:, :3], control)
 
 
-def test_the_collection_is_cached_by_the_builder_code_and_the_asset_version(quick, root, monkeypatch):
+def test_the_collection_is_cached_by_the_builder_code_and_the_asset_version(quick, animal_root, monkeypatch):
     digest = animals.builder_digest()
     assert quick.meta["builder"] == digest
-    files = sorted(p.name for p in root.iterdir())
+    built = opnet.data.load_collection("animals", "quick", root=animal_root, progress=False)  # a build of its own here
+    assert np.array_equal(built.operators, quick.operators)
+    files = sorted(p.name for p in animal_root.iterdir())
     assert f"animals-registered-{digest}.npz" in files
     assert any(name.startswith(f"animals-quick-native-seed0-v2-{digest[:8]}") for name in files)
-    again = opnet.data.load_collection("animals", "quick", root=root, progress=False)
-    assert np.array_equal(again.operators, quick.operators)
+    again = opnet.data.load_collection("animals", "quick", root=animal_root, progress=False)
+    assert np.array_equal(again.operators, built.operators)
     # another asset version: another digest, so another file (the registrations too), never a stale one
     monkeypatch.setattr(animals.collection, "asset_version", lambda: "9.9.9")
     assert animals.builder_digest() != digest
@@ -131,7 +136,7 @@ def test_in_between_poses_follow_the_clip_and_slerp_the_turns(quick):
         interpolate_controls(quick, c0, c[other], [0.5])
 
 
-def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, root, tmp_path):
+def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, animal_root, tmp_path):
     from opnet.__main__ import _parser
     from opnet.reproduce import Budget, default_out, reproduce
 
@@ -157,7 +162,7 @@ def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, r
         budget=tiny,
         ablation=False,
         refine=False,
-        data_root=root,
+        data_root=animal_root,
         progress=False,
     )
     assert {r["table"] for r in rows} == {"table1", "analogy", "interpolation"}

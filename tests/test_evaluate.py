@@ -347,7 +347,7 @@ def test_reproduce_with_seeds_gives_the_applications_intervals_and_judges_their_
 def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_loads, tiny_collection):
     """Table 1's Comp networks train on operators through computed maps; test shapes on 2k and 5k meshes are decoded
     by them and by Table 1's, beside the exact 1k operators of the same shapes."""
-    few = humans.subset(np.concatenate([humans.indices(s)[::8] for s in opnet.data.SPLITS]))
+    few = humans.subset(np.concatenate([humans.indices(s)[::16] for s in opnet.data.SPLITS]))  # 3 test shapes
     profile_loads("humans", few)
     budget = reproduce.Budget(epochs=2, ablation_epochs=1, batch_size=8, hidden=16, discretisation_shapes=3)
     data = tmp_path / "data"

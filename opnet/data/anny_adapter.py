@@ -29,6 +29,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .._extras import require
+from .._files import build_lock
 from .subjects import PHENOTYPES
 
 #: The anny releases opnet is tested with (the decimated bodies use anny 0.6 internals).
@@ -214,6 +215,17 @@ def _decimated_model_data(n_vertices: int):
     return cache_builder(build)(n_vertices, code_version=model_code_version(build))
 
 
+def _one_builder():
+    """The lock held while a model is built or read from anny's cache: anny writes a model's cache file in place
+    (``save_safetensors`` on its final name), so a second process starting on a cold cache would read a part of it;
+    with the lock it waits for the first to finish, then reads the whole file (:func:`opnet._files.build_lock` on
+    ``.opnet-build.lock`` in anny's cache folder).
+    """
+    from anny.paths import get_anny_cache_path
+
+    return build_lock(get_anny_cache_path() / ".opnet-build.lock")
+
+
 def _ready(model):
     return model.to(torch.float64).eval().requires_grad_(False)
 
@@ -229,16 +241,17 @@ def human_model(resolution: str = "1k"):
         raise ValueError(f"resolution must be one of {list(RESOLUTIONS)}, got {resolution!r}.")
     _prepare_anny()
     topology = RESOLUTIONS[resolution]
-    if topology.startswith(_QUADRIC_PREFIX):
-        model = anny.Anny.from_model_data(
-            _decimated_model_data(int(topology[len(_QUADRIC_PREFIX) :])),
-            skinning_method="lbs",
-            pose_parameterization="local-ref",
-            bone_orientation="cached",
-            root_identity_orientation=False,
-        )
-    else:
-        model = anny.Anny(topology=topology, skinning_method="lbs")
+    with _one_builder():
+        if topology.startswith(_QUADRIC_PREFIX):
+            model = anny.Anny.from_model_data(
+                _decimated_model_data(int(topology[len(_QUADRIC_PREFIX) :])),
+                skinning_method="lbs",
+                pose_parameterization="local-ref",
+                bone_orientation="cached",
+                root_identity_orientation=False,
+            )
+        else:
+            model = anny.Anny(topology=topology, skinning_method="lbs")
     return _ready(model)
 
 
@@ -246,7 +259,8 @@ def human_model(resolution: str = "1k"):
 def head_model():
     """Anny's head model (``topology="head"``, rig ``"anny-head"``) with its 52 facial actions, float64."""
     _prepare_anny()
-    return _ready(anny.Anny(topology="head", rig="anny-head", facial_actions="all", skinning_method="lbs"))
+    with _one_builder():
+        return _ready(anny.Anny(topology="head", rig="anny-head", facial_actions="all", skinning_method="lbs"))
 
 
 @functools.lru_cache(maxsize=None)
@@ -257,7 +271,10 @@ def hand_model():
     the bone and ``x`` the flexion hinge.
     """
     _prepare_anny()
-    model = anny.Anny(topology="hand.R", rig="anny-hand.R", skinning_method="lbs", pose_parameterization="local-bone")
+    with _one_builder():
+        model = anny.Anny(
+            topology="hand.R", rig="anny-hand.R", skinning_method="lbs", pose_parameterization="local-bone"
+        )
     return _ready(model)
 
 
