@@ -218,6 +218,8 @@ def test_labels_on_the_2k_mesh_are_the_generators_shapes_with_the_base_operators
             labels_collection(few, bad, root=tmp_path)
     with pytest.raises(ValueError, match="at its base resolution.*already on the 2k mesh"):
         labels_collection(labels, "5k", root=tmp_path)  # labels of labels
+    with pytest.raises(ValueError, match="mapped collections are made from .*already on the 2k mesh"):
+        mapped_collection(labels, "5k", root=tmp_path)  # one check of the source for both
     # the same bodies in the same poses as the 1k shapes: the generator's correspondence carries one onto the other
     carried = np.stack([resolution_map(few, "2k") @ v for v in few.vertices.astype(np.float64)])
     gap = np.linalg.norm(carried - labels.vertices, axis=-1)

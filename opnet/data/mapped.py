@@ -110,16 +110,7 @@ def mapped_collection(
     Collection
         With ``meta`` gaining ``maps``, ``map_resolution``, ``map_k`` and ``source`` (the source's name).
     """
-    if not isinstance(collection, Collection):
-        raise TypeError(f"collection must be an opnet.data.Collection, got {type(collection).__name__}.")
-    p = profile_of(generated_name(collection))
-    if not p.computed_maps or collection.meta.get("resolution") != p.resolutions[0]:
-        offered = [name for name, q in PROFILES.items() if q.computed_maps]
-        raise ValueError(
-            f"mapped collections are made from a generated collection at its base resolution whose profile has other "
-            f"triangulations (computed_maps: {offered}, e.g. the 1k humans, opnet.data.load_collection('humans', "
-            f"preset)); this one is the {p.name} at {collection.meta.get('resolution')!r}."
-        )
+    _check_source(collection, "mapped collections")
     if resolution not in humans.RESOLUTIONS:
         raise ValueError(f"resolution must be one of {list(humans.RESOLUTIONS)}, got {resolution!r}.")
     if maps not in MAPS:
@@ -172,6 +163,25 @@ def mapped_collection(
     return out
 
 
+def _check_source(collection, made: str) -> None:
+    """Refuse what :func:`mapped_collection` and :func:`labels_collection` cannot start from: anything but a generated
+    collection at its base resolution whose profile has other triangulations, its labels on its own mesh. ``made``
+    names what they make, for the message.
+    """
+    if not isinstance(collection, Collection):
+        raise TypeError(f"collection must be an opnet.data.Collection, got {type(collection).__name__}.")
+    p = profile_of(generated_name(collection))
+    base, finer = collection.meta.get("resolution"), collection.meta.get("labels_resolution")
+    if not p.computed_maps or base != p.resolutions[0] or finer:
+        offered = [name for name, q in PROFILES.items() if q.computed_maps]
+        raise ValueError(
+            f"{made} are made from a generated collection at its base resolution whose profile has other "
+            f"triangulations (computed_maps: {offered}, e.g. the 1k humans, opnet.data.load_collection('humans', "
+            f"preset)); this one is the {p.name} at {base!r}"
+            + (f", its labels already on the {finer} mesh." if finer else ".")
+        )
+
+
 def labels_collection(collection: Collection, resolution: str = "2k", *, root=None, rebuild: bool = False):
     """``collection``'s shapes with the base's operators as they are, but each shape's vertices and faces those of its
     ``resolution`` mesh: what a network trained with finer labels decodes to (the paper's appendix, the third row of
@@ -196,17 +206,8 @@ def labels_collection(collection: Collection, resolution: str = "2k", *, root=No
         ``root`` (``<collection>-labels<resolution>-<hash>.npy``, written atomically). It is not saved as a
         collection, given new channels or refined (those need the base's mesh): each says so.
     """
-    if not isinstance(collection, Collection):
-        raise TypeError(f"collection must be an opnet.data.Collection, got {type(collection).__name__}.")
-    p = profile_of(generated_name(collection))
-    base = collection.meta.get("resolution")
-    if not p.computed_maps or base != p.resolutions[0] or "labels_resolution" in collection.meta:
-        finer = collection.meta.get("labels_resolution")
-        raise ValueError(
-            "labels on another mesh are made from a generated collection at its base resolution whose profile has "
-            f"other triangulations (e.g. the 1k humans); this one is the {p.name} at {base!r}"
-            + (f", its labels already on the {finer} mesh." if finer else ".")
-        )
+    _check_source(collection, "labels on another mesh")
+    base = collection.meta["resolution"]
     if resolution not in humans.RESOLUTIONS or resolution == base:
         others = [r for r in humans.RESOLUTIONS if r != base]
         raise ValueError(f"resolution must be one of {others}, got {resolution!r}.")
