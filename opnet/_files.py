@@ -7,6 +7,8 @@ from __future__ import annotations
 import errno
 import os
 import shutil
+import threading
+import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -118,9 +120,8 @@ def writer_lock(folder, what: str):
     this one, gets :class:`FolderInUseError` at once. Readers take no lock: every file is written atomically
     (:func:`atomic_write`). Where ``fcntl`` is missing (Windows) no lock is taken.
     """
-    try:
-        import fcntl
-    except ImportError:  # no advisory locks: one writer is the user's care there
+    fcntl = _fcntl()
+    if fcntl is None:  # no advisory locks: one writer is the user's care there
         yield
         return
     folder = Path(folder)
@@ -143,22 +144,52 @@ def writer_lock(folder, what: str):
 
 
 @contextmanager
-def build_lock(path):
+def build_lock(path, what: str = "it"):
     """Wait for, then hold, an exclusive lock on the file ``path`` (its folder created when missing): one process at a
     time builds a cache whose writer is not atomic (anny's model data), so another waits and then reads the finished
-    file instead of a part of it. ``fcntl.flock``, released by the OS when the holder dies; no lock where ``fcntl`` is
-    missing (Windows).
+    file instead of a part of it; ``what`` names the work in the warning given when it has to wait. ``fcntl.flock``,
+    released by the OS when the holder dies. Re-entrant in one thread (a nested use holds it already); another thread
+    of the process waits like another process. No lock where ``fcntl`` is missing (Windows) or the file cannot be
+    opened at all (a read-only folder, whose cache another process cannot be writing either).
     """
+    fcntl = _fcntl()
+    path = Path(path).absolute()
+    me = threading.get_ident()
+    if fcntl is None or _HELD.get(path) == me:
+        yield
+        return
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError:
+        try:
+            fd = os.open(path, os.O_RDONLY)  # a read-only cache: flock works on it too
+        except OSError:
+            yield
+            return
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            warnings.warn(f"waiting for another process (or thread) building {what} (lock {path})", stacklevel=3)
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        _HELD[path] = me
+        try:
+            yield
+        finally:
+            del _HELD[path]
+    finally:
+        os.close(fd)  # releases the lock
+
+
+#: The locks of :func:`build_lock` this process holds: path -> the thread holding it.
+_HELD: dict = {}
+
+
+def _fcntl():
+    """The ``fcntl`` module, or ``None`` where it is missing (Windows)."""
     try:
         import fcntl
     except ImportError:
-        yield
-        return
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        yield
-    finally:
-        os.close(fd)  # releases the lock
+        return None
+    return fcntl

@@ -1,7 +1,6 @@
 """One builder at a time of a cache that another library writes in place (anny's model data): opnet._files.build_lock
 and the body model's use of it."""
 
-import fcntl
 import os
 import subprocess
 import sys
@@ -11,65 +10,87 @@ import pytest
 
 import opnet._files
 
-# The writer: takes the lock, says so, then writes the cache file in place in ten slow pieces (as anny's
-# save_safetensors does, on the file's final name).
+fcntl = pytest.importorskip("fcntl")  # advisory locks: none on Windows
+
+# The writer: takes the lock, says so, waits until the reader is about to take it too, then writes the cache file in
+# place in ten slow pieces (as anny's save_safetensors does, on the file's final name).
 WRITER = """
-import sys, time
+import os, sys, time
 from opnet._files import build_lock
-lock, path, ready = sys.argv[1:]
+lock, path, ready, waiting = sys.argv[1:]
 with build_lock(lock):
     open(ready, "w").close()
+    while not os.path.exists(waiting):
+        time.sleep(0.01)
     with open(path, "w") as f:
         for i in range(10):
-            f.write(f"piece {i}\\n"); f.flush(); time.sleep(0.4)
+            f.write(f"piece {i}\\n"); f.flush(); time.sleep(0.2)
 """
 
-# The reader: waits for the lock, then reads the file the way anny's cache_builder does (exists, then load).
+# The reader: says it is about to take the lock, waits for it, then reads the file as anny's cache_builder does.
 READER = """
 import os, sys
 from opnet._files import build_lock
-lock, path = sys.argv[1:]
-with build_lock(lock):
+lock, path, waiting = sys.argv[1:]
+open(waiting, "w").close()
+with build_lock(lock, "the test's file"):
     print(open(path).read() if os.path.exists(path) else "missing", end="")
 """
 
 
+def _wait_for(path, process, seconds=60):
+    deadline = time.monotonic() + seconds
+    while not path.exists():
+        assert process.poll() is None and time.monotonic() < deadline, f"{path.name} did not appear"
+        time.sleep(0.02)
+
+
 def test_a_second_process_waits_for_the_builder_and_reads_the_whole_file(tmp_path):
-    lock, path, ready = tmp_path / "cache" / ".lock", tmp_path / "model.safetensors", tmp_path / "ready"
-    writer = subprocess.Popen([sys.executable, "-c", WRITER, str(lock), str(path), str(ready)])
+    lock, path = tmp_path / "cache" / ".lock", tmp_path / "model.safetensors"
+    ready, waiting = tmp_path / "ready", tmp_path / "waiting"
+    writer = subprocess.Popen([sys.executable, "-c", WRITER, str(lock), str(path), str(ready), str(waiting)])
     try:
-        deadline = time.monotonic() + 60
-        while not ready.exists():  # the writer holds the lock
-            assert writer.poll() is None and time.monotonic() < deadline, "the writer did not take the lock"
-            time.sleep(0.02)
-        read = subprocess.run([sys.executable, "-c", READER, str(lock), str(path)], capture_output=True, text=True)
+        _wait_for(ready, writer)  # the writer holds the lock
+        args = [sys.executable, "-c", READER, str(lock), str(path), str(waiting)]
+        read = subprocess.run(args, capture_output=True, text=True, timeout=120)
     finally:
-        writer.wait(60)
+        try:
+            writer.wait(60)
+        except subprocess.TimeoutExpired:  # the reader never came: the writer still waits for it
+            writer.kill()
+            writer.wait()
     assert writer.returncode == 0 and read.returncode == 0, read.stderr
     assert read.stdout == "".join(f"piece {i}\n" for i in range(10))  # not a part of it
+    assert "waiting for another process (or thread) building the test's file" in read.stderr  # it said why it waits
 
 
-def test_a_killed_builder_leaves_no_lock(tmp_path):
+def test_a_killed_builder_leaves_no_lock_and_one_thread_may_nest_it(tmp_path):
     lock, ready = tmp_path / ".lock", tmp_path / "ready"
     hold = (
         f"from opnet._files import build_lock\nwith build_lock({str(lock)!r}):\n    open({str(ready)!r}, 'w').close()\n"
     )
     holder = subprocess.Popen([sys.executable, "-c", hold + "    import time; time.sleep(600)\n"])
-    deadline = time.monotonic() + 60
-    while not ready.exists():
-        assert holder.poll() is None and time.monotonic() < deadline
-        time.sleep(0.02)
-    assert _held(lock)
-    holder.kill()
-    holder.wait()
+    try:
+        _wait_for(ready, holder)
+        assert _held(lock)
+    finally:
+        holder.kill()
+        holder.wait()
     assert not _held(lock)
     with opnet._files.build_lock(lock):  # taken at once
         assert _held(lock)
+        with opnet._files.build_lock(lock):  # nested in one thread: held already, not a wait for itself
+            assert _held(lock)
+        assert _held(lock)
+    assert not _held(lock)
 
 
 def _held(lock) -> bool:
-    """Whether another open file description holds ``lock``'s flock."""
-    fd = os.open(lock, os.O_RDWR)
+    """Whether another open file description holds ``lock``'s flock (``False`` where there is no such file)."""
+    try:
+        fd = os.open(lock, os.O_RDWR)
+    except FileNotFoundError:
+        return False
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
@@ -86,11 +107,18 @@ def test_the_body_models_are_built_under_the_lock_in_annys_cache(monkeypatch, tm
     from opnet.data import anny_adapter as adapter
 
     monkeypatch.setattr(paths, "_ANNY_CACHE_DIR", [tmp_path])
+    monkeypatch.setattr(adapter, "_prepare_anny", lambda: None)  # Warp's import: seconds, not what is tested
+    lock = tmp_path / ".opnet-build.lock"
     seen = []
 
     class Model:  # anny.Anny's stand-in: records whether the lock is held while it builds
         def __init__(self, **kw):
-            seen.append((kw["topology"], _held(tmp_path / ".opnet-build.lock")))
+            seen.append((kw["topology"], _held(lock)))
+
+        @classmethod
+        def from_model_data(cls, data, **kw):
+            seen.append(("from model data", _held(lock)))
+            return cls(topology=data)
 
         def to(self, dtype):
             return self
@@ -102,14 +130,23 @@ def test_the_body_models_are_built_under_the_lock_in_annys_cache(monkeypatch, tm
             return self
 
     monkeypatch.setattr(anny, "Anny", Model)
+    monkeypatch.setattr(adapter, "_decimated_model_data", lambda n: seen.append((n, _held(lock))) or f"{n} vertices")
     builders = (adapter.human_model, adapter.head_model, adapter.hand_model)
     for build in builders:
         build.cache_clear()
     try:
         adapter.human_model("1k")
+        adapter.human_model("2k")  # the decimated body: anny's cached data built from opnet's code
         adapter.head_model()
         adapter.hand_model()
     finally:
         for build in builders:
             build.cache_clear()
-    assert seen == [("notoes_collapse10pc", True), ("head", True), ("hand.R", True)]
+    assert seen == [
+        ("notoes_collapse10pc", True),
+        (2000, True),
+        ("from model data", True),
+        ("2000 vertices", True),
+        ("head", True),
+        ("hand.R", True),
+    ]

@@ -197,7 +197,7 @@ def test_three_way_mapped_deals_the_training_shapes_to_three_encodings(humans, m
 def test_labels_on_the_2k_mesh_are_the_generators_shapes_with_the_base_operators(few, tmp_path, monkeypatch):
     """The finer labels of the paper's appendix: each shape's 2k-vertex version as vertices and faces, the base's
     operators unchanged; cached (a file of other shapes refused); refused for a resolution that is the base's, for
-    labels of labels, and as a collection to save or add channels to."""
+    labels of labels, as the source of a mapped collection, and as a collection to save or add channels to."""
     from opnet.data import generate_shapes, humans, labels_collection
     from opnet.data.generators import resolution_map
     from opnet.data.storage import CollectionError
@@ -216,9 +216,9 @@ def test_labels_on_the_2k_mesh_are_the_generators_shapes_with_the_base_operators
     for bad in ("1k", "3k"):
         with pytest.raises(ValueError, match=r"resolution must be one of \['2k', '5k'\]"):
             labels_collection(few, bad, root=tmp_path)
-    with pytest.raises(ValueError, match="at its base resolution.*already on the 2k mesh"):
+    with pytest.raises(ValueError, match="this one's are on the 2k mesh .*pass the collection it was made from"):
         labels_collection(labels, "5k", root=tmp_path)  # labels of labels
-    with pytest.raises(ValueError, match="mapped collections are made from .*already on the 2k mesh"):
+    with pytest.raises(ValueError, match="mapped collections are made from .*this one's are on the 2k mesh"):
         mapped_collection(labels, "5k", root=tmp_path)  # one check of the source for both
     # the same bodies in the same poses as the 1k shapes: the generator's correspondence carries one onto the other
     carried = np.stack([resolution_map(few, "2k") @ v for v in few.vertices.astype(np.float64)])

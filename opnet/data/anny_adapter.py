@@ -16,6 +16,7 @@ opnet's model-building code rebuilds them instead of silently reusing the old on
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import gzip
 import hashlib
@@ -223,7 +224,10 @@ def _one_builder():
     """
     from anny.paths import get_anny_cache_path
 
-    return build_lock(get_anny_cache_path() / ".opnet-build.lock")
+    folder = get_anny_cache_path()
+    if folder is None:  # anny without a cache: nothing written, nothing to wait for
+        return contextlib.nullcontext()
+    return build_lock(folder / ".opnet-build.lock", "anny's model data")
 
 
 def _ready(model):
@@ -260,7 +264,8 @@ def head_model():
     """Anny's head model (``topology="head"``, rig ``"anny-head"``) with its 52 facial actions, float64."""
     _prepare_anny()
     with _one_builder():
-        return _ready(anny.Anny(topology="head", rig="anny-head", facial_actions="all", skinning_method="lbs"))
+        model = anny.Anny(topology="head", rig="anny-head", facial_actions="all", skinning_method="lbs")
+    return _ready(model)
 
 
 @functools.lru_cache(maxsize=None)

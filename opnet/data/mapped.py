@@ -80,7 +80,8 @@ def mapped_collection(
     Parameters
     ----------
     collection : Collection
-        A generated humans collection (:func:`opnet.data.load_collection`), whose base is the 1k mesh.
+        A generated humans collection (:func:`opnet.data.load_collection`), whose base is the 1k mesh (not one of
+        :func:`labels_collection`, whose vertices are on another mesh).
     resolution : str
         The other triangulation: one of :data:`opnet.data.humans.RESOLUTIONS` (``"2k"``, ``"5k"``).
     maps : str
@@ -170,15 +171,20 @@ def _check_source(collection, made: str) -> None:
     """
     if not isinstance(collection, Collection):
         raise TypeError(f"collection must be an opnet.data.Collection, got {type(collection).__name__}.")
+    if "labels_resolution" in collection.meta:
+        finer = collection.meta["labels_resolution"]
+        raise ValueError(
+            f"{made} are made from a collection whose vertices are on its base mesh; this one's are on the {finer} "
+            "mesh (opnet.data.labels_collection): pass the collection it was made from."
+        )
     p = profile_of(generated_name(collection))
-    base, finer = collection.meta.get("resolution"), collection.meta.get("labels_resolution")
-    if not p.computed_maps or base != p.resolutions[0] or finer:
+    base = collection.meta.get("resolution")
+    if not p.computed_maps or base != p.resolutions[0]:
         offered = [name for name, q in PROFILES.items() if q.computed_maps]
         raise ValueError(
             f"{made} are made from a generated collection at its base resolution whose profile has other "
             f"triangulations (computed_maps: {offered}, e.g. the 1k humans, opnet.data.load_collection('humans', "
-            f"preset)); this one is the {p.name} at {base!r}"
-            + (f", its labels already on the {finer} mesh." if finer else ".")
+            f"preset)); this one is the {p.name} at {base!r}."
         )
 
 

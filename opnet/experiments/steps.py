@@ -79,11 +79,12 @@ def discretisation_rows(
     mean over the shapes; 0 for the true map) and ``fields[name]`` (a network's run fields: ``run``, ``architecture``,
     ``variant``, ``group``...). A decoder given as a list (of networks or runs, one per training seed) gets one row per
     encoding over its seeds (:func:`opnet.experiments.stats.summarize_seeds`: the mean, an interval over seeds and
-    shapes). ``comp``: the collection through the 2k computed maps, whose maps are reused. With
-    ``out``, writes ``discretisation.png`` there (:func:`discretisation_figure` of three 5k shapes, by the networks
-    named in ``shown``, default all). ``funcchar``: also FuncChar (Int+Ext)'s geometric reconstruction of the 5k
-    shapes through the computed maps (the paper's appendix, Fig. 12's bottom row; ``baseline`` ``"funcchar"``, at most
-    ``budget.refine_shapes`` shapes, on ``device``), its four channels carried through maps of their own. ``labels``:
+    shapes). ``comp``: the collection through the 2k computed maps, whose maps are reused. With ``out``, writes
+    ``discretisation.png`` there (:func:`discretisation_figure` of three 5k shapes, or as many as the budget maps, by
+    the networks named in ``shown``, default all). ``funcchar``: also FuncChar (Int+Ext)'s geometric reconstruction of
+    the 5k shapes through the computed maps (the paper's appendix, Fig. 12's bottom row; ``baseline`` ``"funcchar"``,
+    at most ``budget.refine_shapes`` shapes, on ``device``), its four channels carried through maps of their own.
+    ``labels``:
     name → the collection a network of ``nets`` was trained on when its labels are on another mesh
     (:func:`opnet.data.labels_collection` of ``coll``: the paper's network trained with 2k-vertex labels); it decodes
     the same encodings and is measured against those shapes on that mesh.
@@ -127,7 +128,7 @@ def discretisation_rows(
         picked = {name: _network(decoders[name][0]) for name in names}  # a replicated one: its first seed
         fine = encodings["5k", "computed"]
         on = {name: _labelled(fine, lab, idx) for name, lab in (labels or {}).items() if name in picked}
-        plotter = discretisation_figure(fine, picked, labels=on)
+        plotter = discretisation_figure(fine, picked, min(3, len(fine)), labels=on)  # a budget of fewer shapes too
         Path(out).mkdir(parents=True, exist_ok=True)
         plotter.screenshot(str(Path(out) / "discretisation.png"))
         plotter.close()
