@@ -143,6 +143,10 @@ def writer_lock(folder, what: str):
         os.close(fd)  # releases the lock
 
 
+#: The locks of :func:`build_lock` this process holds: path -> the thread holding it.
+_HELD: dict = {}
+
+
 @contextmanager
 def build_lock(path, what: str = "it"):
     """Wait for, then hold, an exclusive lock on the file ``path`` (its folder created when missing): one process at a
@@ -180,10 +184,6 @@ def build_lock(path, what: str = "it"):
             del _HELD[path]
     finally:
         os.close(fd)  # releases the lock
-
-
-#: The locks of :func:`build_lock` this process holds: path -> the thread holding it.
-_HELD: dict = {}
 
 
 def _fcntl():

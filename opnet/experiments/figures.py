@@ -192,14 +192,14 @@ def refinement_figures(out: Path, coll, net_method, steps: int, *, device="cpu",
     plotter.close()
 
 
-def discretisation_figure(mapped, nets: dict, shapes: int = 3, *, labels: dict | None = None):
-    """The ``shapes`` shapes of ``mapped`` (:func:`opnet.data.mapped_collection` with computed maps) that are farthest
-    from the base (the most deformed), on their own mesh through their maps onto the base, and each network's
-    reconstruction (name → network) coloured by its error: a pyvista plotter
-    (:func:`opnet.plotting.plot_mapped_reconstructions`; the maps are computed again, as they were for its operators:
-    seconds each). ``labels``: name → ``mapped`` with the vertices and faces a network of ``nets`` decodes to when
-    they are another mesh's (a network trained with finer labels, :func:`opnet.data.labels_collection`), the shapes
-    it is measured against.
+def discretisation_figure(mapped, nets: dict, shapes: int | None = None, *, labels: dict | None = None):
+    """The ``shapes`` shapes (default three, or all of a smaller ``mapped``) of ``mapped``
+    (:func:`opnet.data.mapped_collection` with computed maps) that are farthest from the base (the most deformed), on
+    their own mesh through their maps onto the base, and each network's reconstruction (name → network) coloured by
+    its error: a pyvista plotter (:func:`opnet.plotting.plot_mapped_reconstructions`; the maps are computed again, as
+    they were for its operators: seconds each). ``labels``: name → ``mapped`` with the vertices and faces a network of
+    ``nets`` decodes to when they are another mesh's (a network trained with finer labels,
+    :func:`opnet.data.labels_collection`), the shapes it is measured against.
     """
     from ..data import Collection
     from ..data.generators import generate_shapes
@@ -212,6 +212,7 @@ def discretisation_figure(mapped, nets: dict, shapes: int = 3, *, labels: dict |
 
     if not isinstance(mapped, Collection) or mapped.meta.get("maps") != "computed":
         raise ValueError("mapped must be a collection from opnet.data.mapped_collection(..., maps='computed').")
+    shapes = min(3, len(mapped)) if shapes is None else shapes
     if not isinstance(shapes, (int, np.integer)) or isinstance(shapes, bool) or not 1 <= shapes <= len(mapped):
         raise ValueError(f"shapes must be an integer from 1 to len(mapped) = {len(mapped)}, got {shapes!r}.")
     if not nets:

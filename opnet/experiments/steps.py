@@ -84,8 +84,7 @@ def discretisation_rows(
     the networks named in ``shown``, default all). ``funcchar``: also FuncChar (Int+Ext)'s geometric reconstruction of
     the 5k shapes through the computed maps (the paper's appendix, Fig. 12's bottom row; ``baseline`` ``"funcchar"``,
     at most ``budget.refine_shapes`` shapes, on ``device``), its four channels carried through maps of their own.
-    ``labels``:
-    name → the collection a network of ``nets`` was trained on when its labels are on another mesh
+    ``labels``: name → the collection a network of ``nets`` was trained on when its labels are on another mesh
     (:func:`opnet.data.labels_collection` of ``coll``: the paper's network trained with 2k-vertex labels); it decodes
     the same encodings and is measured against those shapes on that mesh.
     """
@@ -128,7 +127,7 @@ def discretisation_rows(
         picked = {name: _network(decoders[name][0]) for name in names}  # a replicated one: its first seed
         fine = encodings["5k", "computed"]
         on = {name: _labelled(fine, lab, idx) for name, lab in (labels or {}).items() if name in picked}
-        plotter = discretisation_figure(fine, picked, min(3, len(fine)), labels=on)  # a budget of fewer shapes too
+        plotter = discretisation_figure(fine, picked, labels=on)
         Path(out).mkdir(parents=True, exist_ok=True)
         plotter.screenshot(str(Path(out) / "discretisation.png"))
         plotter.close()
