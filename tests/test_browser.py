@@ -1,8 +1,10 @@
 """The widgets in a real JupyterLab, and the documentation site, in Chromium (Debian's, driven by Playwright).
 
 - ``test_explorers_follow_their_controls_in_jupyterlab`` starts JupyterLab on localhost (a token, a temporary root
-  folder, its own config and settings folders), opens notebook 05 (a copy, in that folder) in Chromium, runs it whole
-  with *Run → Run All Cells* at the ``quick`` preset, then moves the interpolation explorer's ``t`` slider (arrow keys
+  folder, its own config and settings folders), opens a copy of notebook 05 in Chromium that holds the code cells its
+  explorers need (:func:`explorer_cells`: each cell that shows one, and the earlier cells that bind a name they read;
+  nbval runs the whole notebook), runs it with *Run → Run All Cells* at the ``quick`` preset, then moves the
+  interpolation explorer's ``t`` slider (arrow keys
   on its handle) and changes a dropdown of each explorer, and checks every time that the rendered picture (the
   ``ipywidgets.Image``) changes. ``OPNET_STATIC_WIDGETS`` is removed from the kernel's environment: the widgets are
   live here. The kernel reads and writes the data cache as the notebook does anywhere (``OPNET_DATA_DIR``, else
@@ -17,6 +19,7 @@ Both skip, saying why, where Playwright or ``/usr/bin/chromium`` is missing (``.
 browser is ever downloaded). Screenshots are written into the test's temporary folder, never into the checkout.
 """
 
+import ast
 import functools
 import http.server
 import io
@@ -48,7 +51,9 @@ CHROMIUM_ARGS = [
     "--no-first-run",
 ]
 STEP_MS = 60_000  # the longest wait of one step in the browser (a render after a control changes, a page load)
-RUN_ALL_S = 900  # notebook 05's Run All: ~3.5 min from empty caches on 2 idle cores, ~1 min with its networks trained
+RUN_ALL_S = (
+    900  # the copy's Run All: ~3.5 min from empty caches on 2 idle cores (training), seconds with the networks trained
+)
 
 sync_api = pytest.importorskip("playwright.sync_api", reason="needs Playwright: pip install -e '.[browser]'")
 if not CHROMIUM.is_file():
@@ -82,6 +87,60 @@ def browser(tmp_path_factory):
 # -- JupyterLab ------------------------------------------------------------------------------------------------
 
 
+def _names(source: str) -> tuple[set, set]:
+    """The names a cell binds (assignments, imports, definitions, loop targets) and those it reads before binding
+    them itself (the earliest use of a name decides; a comprehension's own variables are neither)."""
+    tree = ast.parse(source)
+    first_store, first_load = {}, {}
+    comprehensions = [c.target for c in ast.walk(tree) if isinstance(c, ast.comprehension)]
+    local = {n.id for target in comprehensions for n in ast.walk(target) if isinstance(n, ast.Name)}
+    for node in ast.walk(tree):
+        where = (getattr(node, "lineno", 0), getattr(node, "col_offset", 0))
+        if isinstance(node, ast.Name):
+            seen = first_store if isinstance(node.ctx, ast.Store) else first_load
+            seen[node.id] = min(seen.get(node.id, where), where)
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            for alias in node.names:
+                name = (alias.asname or alias.name).split(".")[0]
+                first_store[name] = min(first_store.get(name, where), where)
+        elif isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+            first_store[node.name] = min(first_store.get(node.name, where), where)
+    free = {name for name, at in first_load.items() if name not in first_store or at < first_store[name]} - local
+    return set(first_store), free
+
+
+def explorer_cells(cells: list) -> list:
+    """The code cells of a notebook that its explorers need, in order: each cell that shows one (``widgets.show(``),
+    and, for each name a needed cell reads, the last earlier cell that binds it (transitively)."""
+    code = [c for c in cells if c["cell_type"] == "code"]
+    sources = ["".join(c["source"]) for c in code]
+    names = [_names(s) for s in sources]
+    needed = {i for i, s in enumerate(sources) if "widgets.show(" in s}
+    todo = sorted(needed)
+    while todo:
+        i = todo.pop()
+        for name in names[i][1]:
+            j = next((j for j in range(i - 1, -1, -1) if name in names[j][0]), None)
+            if j is not None and j not in needed:
+                needed.add(j)
+                todo.append(j)
+    return [code[i] for i in sorted(needed)]
+
+
+def test_the_lab_copy_holds_the_explorers_and_what_they_read():
+    """The slice of notebook 05 run in JupyterLab: every explorer, the set-up cell, and no cell that only measures
+    (the applications table, the heads and hands); a cell that binds a name itself does not pull in an earlier one."""
+    cells = json.loads(NOTEBOOK.read_text())["cells"]
+    kept = ["".join(c["source"]) for c in explorer_cells(cells)]
+    shows = sum("widgets.show(" in "".join(c["source"]) for c in cells)
+    assert sum("widgets.show(" in s for s in kept) == shows >= 3
+    assert "import opnet" in kept[0] and not any("applications_rows(" in s or "parts = {}" in s for s in kept)
+    toy = [{"cell_type": "code", "source": s} for s in ("a = 1\nb = 2", "c = b", "a = 3\nwidgets.show(a + c)")]
+    assert ["".join(c["source"]) for c in explorer_cells(toy)] == ["a = 1\nb = 2", "c = b", toy[2]["source"]]
+    toy[2]["source"] = "a = 3\nwidgets.show(a, [b for b in range(a)])"
+    assert explorer_cells(toy) == [toy[2]]
+
+
 @pytest.fixture(scope="module")
 def lab(tmp_path_factory, humans, quick_collection):
     """``(url, home)``: JupyterLab serving a folder with a copy of notebook 05 (outputs cleared); stopped afterwards.
@@ -93,9 +152,9 @@ def lab(tmp_path_factory, humans, quick_collection):
     for part in ("heads", "hands"):  # notebook 05's section 5 reads them
         quick_collection(part)
     notebook = json.loads(NOTEBOOK.read_text())
+    notebook["cells"] = explorer_cells(notebook["cells"])
     for cell in notebook["cells"]:
-        if cell["cell_type"] == "code":
-            cell["outputs"], cell["execution_count"] = [], None
+        cell["outputs"], cell["execution_count"] = [], None
     (served / NOTEBOOK.name).write_text(json.dumps(notebook, indent=1))
     env = {k: v for k, v in os.environ.items() if k != "OPNET_STATIC_WIDGETS"}
     env.update(

@@ -137,7 +137,7 @@ def builder_digest() -> str:
     from ... import mesh, spectral
 
     h = hashlib.sha256(asset_version().encode())
-    for package in ("pymeshlab", "pymeshfix", "pygltflib"):
+    for package in ("pymeshlab", "pymeshfix"):
         try:
             h.update(f"{package} {version(package)}".encode())
         except PackageNotFoundError:
