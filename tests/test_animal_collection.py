@@ -176,3 +176,12 @@ def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, r
     assert "paper d_R" not in md and "target ≥ 10" not in md and "DFAUST" not in md
     assert (tmp_path / "figures" / "analogy_body.png").is_file()
     assert opnet.plotting.side_view(quick) == "zy"  # the figures show the animals (y up) from the side
+
+
+def test_the_species_registered_in_processes_equal_one_registered_here(quick):
+    """The build registers the species in joblib processes: one registered again in this process is the same rig."""
+    bodies = animals.registered_species()  # the build's registrations (read from the data cache, or built here)
+    k = bodies.species.index("fox")
+    here = animals.registered_rig(bodies.rigs[0], animals.read_rig("fox"))
+    for field in ("vertices", "skin_joints", "skin_weights"):
+        assert np.array_equal(getattr(here, field), getattr(bodies.rigs[k], field)), field

@@ -28,6 +28,7 @@ from __future__ import annotations
 import ast
 import dataclasses
 import hashlib
+import importlib.util
 import inspect
 from dataclasses import dataclass
 from pathlib import Path
@@ -199,8 +200,11 @@ def registered_species(root=None, progress: bool | None = None) -> Bodies:
                 ]
         else:
             rigs = [body_template(read_rig(names[0]))]
-            for name in tqdm(names[1:], desc="registering species", unit="species", disable=progress is False):
-                rigs.append(registered_rig(rigs[0], read_rig(name)))
+            bar = tqdm(total=len(names) - 1, desc="registering species", unit="species", disable=progress is False)
+            for registered in _registered_rigs(rigs[0], names[1:]):
+                rigs.append(registered)
+                bar.update()
+            bar.close()
         _REGISTERED[digest] = _bodies(names, rigs)
     bodies = _REGISTERED[digest]
     if not path.is_file() and (built or root is not None):  # built now, or earlier in this process for another root
@@ -213,6 +217,31 @@ def registered_species(root=None, progress: bool | None = None) -> Bodies:
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write(path, lambda f: np.savez(f, **arrays))
     return bodies
+
+
+def _registered_rigs(source, names: list):
+    """:func:`~.registration.registered_rig` of ``source`` onto each species of ``names``, yielded in order: in joblib
+    processes, one per core (:func:`opnet._parallel.usable_cores`), or here where joblib (the ``data`` extra) is
+    missing. The rigs are the same either way, bit for bit (closest points, sparse solves and k-d trees take no thread
+    count; ``tests/test_animal_collection.py`` compares the two).
+    """
+    from ..._parallel import usable_cores
+
+    if importlib.util.find_spec("joblib") is None:
+        yield from (registered_rig(source, read_rig(name)) for name in names)
+        return
+    import joblib
+
+    with joblib.Parallel(n_jobs=min(usable_cores(), len(names)), return_as="generator") as parallel:
+        yield from parallel(joblib.delayed(_registered_onto)(source, name) for name in names)
+
+
+def _registered_onto(source, name: str):
+    """One species registered onto ``source`` in a worker process (which ends when its parent does)."""
+    from ..._parallel import exit_with_parent
+
+    exit_with_parent()
+    return registered_rig(source, read_rig(name))
 
 
 def _bodies(names: list, rigs: list) -> Bodies:
