@@ -248,7 +248,7 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_lo
         batch_size=64,
         hidden=16,
         refine_steps=2,
-        refine_shapes=2,  # Table 1's operator-matching rows (SfL, FuncChar, ...): a second each
+        refine_shapes=1,  # Table 1's operator-matching rows (SfL, FuncChar, ...): one shape each, a second or two
         pointnet_epochs=1,
         analogies=5,
         paths=2,
