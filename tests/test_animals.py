@@ -4,6 +4,7 @@ posed by forward kinematics and linear blend skinning, checked against what must
 import dataclasses
 import importlib.util
 import json
+import struct
 
 import numpy as np
 import pytest
@@ -215,3 +216,11 @@ def test_a_file_that_is_not_a_glb_is_refused_with_the_fix(tmp_path):
     bad.write_bytes(b"glTF" + bytes(20))
     with pytest.raises(ValueError, match="not a glTF 2.0 binary.*reinstall the asset package"):
         animals.assets._load(bad)
+    cut = tmp_path / "cut.glb"  # a JSON chunk that claims more bytes than the file holds
+    cut.write_bytes(struct.pack("<III", 0x46546C67, 2, 24) + struct.pack("<II", 100, 0x4E4F534A) + b"{}  ")
+    with pytest.raises(ValueError, match="runs past the file's end"):
+        animals.assets._load(cut)
+    binary_first = tmp_path / "binary_first.glb"
+    binary_first.write_bytes(struct.pack("<III", 0x46546C67, 2, 24) + struct.pack("<II", 4, 0x004E4942) + b"\0" * 4)
+    with pytest.raises(ValueError, match="does not start with a JSON chunk"):
+        animals.assets._load(binary_first)

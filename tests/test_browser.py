@@ -87,26 +87,66 @@ def browser(tmp_path_factory):
 # -- JupyterLab ------------------------------------------------------------------------------------------------
 
 
+class _Names(ast.NodeVisitor):
+    """The names one statement reads and binds. An augmented assignment reads its target too; an item or attribute
+    set (``d[k] = v``, ``o.a = v``) reads and binds its base name (a change to that object; a change through a method
+    call, ``l.append(x)``, is not seen). A function, lambda or comprehension binds only its own name (a definition):
+    what it reads from outside is read, its own variables are neither.
+    """
+
+    def __init__(self):
+        self.reads, self.binds = set(), set()
+
+    def visit_Name(self, node):
+        (self.reads if isinstance(node.ctx, ast.Load) else self.binds).add(node.id)
+
+    def _changed(self, node):
+        self.generic_visit(node)
+        if isinstance(node.ctx, ast.Store):
+            base = node
+            while isinstance(base, (ast.Subscript, ast.Attribute)):
+                base = base.value
+            if isinstance(base, ast.Name):
+                self.reads.add(base.id)
+                self.binds.add(base.id)
+
+    visit_Subscript = visit_Attribute = _changed
+
+    def visit_AugAssign(self, node):
+        if isinstance(node.target, ast.Name):
+            self.reads.add(node.target.id)
+        self.generic_visit(node)
+
+    def visit_Import(self, node):
+        self.binds |= {(alias.asname or alias.name).split(".")[0] for alias in node.names}
+
+    visit_ImportFrom = visit_Import
+
+    def _scope(self, node, name=None):
+        inner = _Names()
+        for child in ast.iter_child_nodes(node):
+            inner.visit(child)
+        args = {a.arg for a in ast.walk(node) if isinstance(a, ast.arg)}
+        self.reads |= inner.reads - inner.binds - args
+        if name is not None:
+            self.binds.add(name)
+
+    def visit_FunctionDef(self, node):
+        self._scope(node, node.name)
+
+    visit_AsyncFunctionDef = visit_ClassDef = visit_FunctionDef
+    visit_Lambda = visit_ListComp = visit_SetComp = visit_DictComp = visit_GeneratorExp = _scope
+
+
 def _names(source: str) -> tuple[set, set]:
-    """The names a cell binds (assignments, imports, definitions, loop targets) and those it reads before binding
-    them itself (the earliest use of a name decides; a comprehension's own variables are neither)."""
-    tree = ast.parse(source)
-    first_store, first_load = {}, {}
-    comprehensions = [c.target for c in ast.walk(tree) if isinstance(c, ast.comprehension)]
-    local = {n.id for target in comprehensions for n in ast.walk(target) if isinstance(n, ast.Name)}
-    for node in ast.walk(tree):
-        where = (getattr(node, "lineno", 0), getattr(node, "col_offset", 0))
-        if isinstance(node, ast.Name):
-            seen = first_store if isinstance(node.ctx, ast.Store) else first_load
-            seen[node.id] = min(seen.get(node.id, where), where)
-        elif isinstance(node, (ast.Import, ast.ImportFrom)):
-            for alias in node.names:
-                name = (alias.asname or alias.name).split(".")[0]
-                first_store[name] = min(first_store.get(name, where), where)
-        elif isinstance(node, (ast.FunctionDef, ast.ClassDef)):
-            first_store[node.name] = min(first_store.get(node.name, where), where)
-    free = {name for name, at in first_load.items() if name not in first_store or at < first_store[name]} - local
-    return set(first_store), free
+    """The names a cell binds, and those it reads before binding them (statement by statement, in order)."""
+    bound, free = set(), set()
+    for statement in ast.parse(source).body:
+        names = _Names()
+        names.visit(statement)
+        free |= names.reads - bound
+        bound |= names.binds
+    return bound, free
 
 
 def explorer_cells(cells: list) -> list:
@@ -139,18 +179,26 @@ def test_the_lab_copy_holds_the_explorers_and_what_they_read():
     assert ["".join(c["source"]) for c in explorer_cells(toy)] == ["a = 1\nb = 2", "c = b", toy[2]["source"]]
     toy[2]["source"] = "a = 3\nwidgets.show(a, [b for b in range(a)])"
     assert explorer_cells(toy) == [toy[2]]
+    for reads in ("a = a + 1", "a += 1", "for a in a:\n    pass", "d[0] = 1", "f = lambda: a"):  # read, then bound
+        toy = [{"cell_type": "code", "source": s} for s in ("a = d = 1", f"{reads}\nwidgets.show(d, a)")]
+        assert explorer_cells(toy) == toy, reads
+    toy = [{"cell_type": "code", "source": s} for s in ("x = 1", "d = {}\nd['k'] = 2", "widgets.show(d)")]
+    assert explorer_cells(toy) == toy[1:]  # the cell that changes d is kept, the one that binds x not
+    toy = [
+        {"cell_type": "code", "source": s} for s in ("x = 1", "def f(x):\n    y = x\n    return y", "widgets.show(f)")
+    ]
+    assert explorer_cells(toy) == toy[1:]  # a function's own variables bind nothing in the notebook
 
 
 @pytest.fixture(scope="module")
 def lab(tmp_path_factory, humans, quick_collection):
-    """``(url, home)``: JupyterLab serving a folder with a copy of notebook 05 (outputs cleared); stopped afterwards.
-    The quick humans, heads and hands are in the data cache first (the fixtures), as notebook 02 leaves them.
+    """``(url, home)``: JupyterLab serving a folder with the slice of notebook 05 (outputs cleared); stopped afterwards.
+    The quick humans and animals are in the data cache first (the fixtures), as notebook 02 leaves them.
     """
     home = tmp_path_factory.mktemp("jupyterlab")
     served = home / "root"
     served.mkdir()
-    for part in ("heads", "hands"):  # notebook 05's section 5 reads them
-        quick_collection(part)
+    quick_collection("animals")  # the slice's section 6 reads them
     notebook = json.loads(NOTEBOOK.read_text())
     notebook["cells"] = explorer_cells(notebook["cells"])
     for cell in notebook["cells"]:

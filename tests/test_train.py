@@ -576,47 +576,6 @@ def test_the_optimiser_step_flushes_subnormals_in_one_thread_and_leaks_nothing()
         torch.set_num_threads(threads)
 
 
-def test_the_optimiser_step_in_threads_equals_one_thread_bit_for_bit():
-    """On two threads the step deals whole parameters out to two threads, each flushing subnormals in its own update:
-    the weights and the optimiser state equal a one-thread step's bit for bit, subnormal second moments included (a
-    thread that did not flush would keep them), and afterwards no thread flushes."""
-    import copy
-
-    from opnet.train import loop
-
-    tiny = torch.finfo(torch.float32).tiny
-    cpu = torch.device("cpu")
-
-    def run(threads):
-        torch.manual_seed(0)
-        net = torch.nn.Sequential(torch.nn.Linear(300, 200), torch.nn.Linear(200, 150), torch.nn.Linear(150, 10))
-        optimizer = loop.adam(net.parameters(), 1e-3)
-        torch.set_num_threads(threads)
-        for step in range(4):
-            for i, p in enumerate(net.parameters()):  # gradients of every size, half of them with subnormal squares
-                scale = 1e-20 if i % 2 else 1e-2
-                p.grad = scale * torch.randn(p.shape, generator=torch.Generator().manual_seed(10 * step + i))
-            assert len(loop._shares(optimizer, threads)) == min(threads, 6)
-            loop.optimizer_step(optimizer, cpu)
-        return copy.deepcopy(net.state_dict()), copy.deepcopy(optimizer.state_dict()["state"])
-
-    threads = torch.get_num_threads()
-    try:
-        (w1, s1), (w2, s2) = run(1), run(2)
-        assert torch.get_num_threads() == 2
-        x = torch.full((1_000_000,), 1e-20) ** 2
-        assert int(((x != 0) & (x.abs() < tiny)).sum()) == 1_000_000  # no thread flushes after the steps
-    finally:
-        torch.set_num_threads(threads)
-    assert all(torch.equal(w1[k], w2[k]) for k in w1)
-    for i in s1:
-        for key in ("step", "exp_avg", "exp_avg_sq"):
-            assert torch.equal(s1[i][key], s2[i][key]), (i, key)
-        moments = s2[i]["exp_avg_sq"]
-        assert not ((moments != 0) & (moments < tiny)).any()
-        assert (moments == 0).all() == bool(i % 2)  # the tiny gradients' squares flushed, the others kept
-
-
 def test_a_training_leaves_no_thread_flushing_subnormals(tiny_collection, tmp_path):
     """In a fresh process whose first parallel torch work is fit's (its workers start inside it), the process
     computes with subnormal numbers afterwards, on every thread."""

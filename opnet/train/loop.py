@@ -17,7 +17,6 @@ from typing import NamedTuple
 import numpy as np
 import torch
 
-from .._parallel import thread_map
 from ..devices import resolve_device
 from ..model import rigid_alignment_loss
 from .rundir import RunState
@@ -120,37 +119,21 @@ def adam(parameters, lr: float) -> torch.optim.Adam:
 
 
 def optimizer_step(optimizer, device) -> None:
-    """``optimizer.step()``; on the CPU with subnormal numbers (below 1.2e-38 in float32) flushed to zero as its inputs
-    and results, in up to ``torch.get_num_threads()`` threads that each update whole parameters of their own, then
-    the thread count and the flag as they were.
+    """``optimizer.step()``; on the CPU in this thread alone, with subnormal numbers (below 1.2e-38 in float32)
+    flushed to zero as its inputs and results, then the thread count and the flag as they were.
 
     Adam's second moments of the weights whose gradients all but vanish fall below that: a fifth of a ``default``
     run's optimiser state after 60 epochs, where x86 takes a slow path that made each optimiser step of that run 3
     to 6 times as long (one thread: 105-181 ms against 16-32 ms, beside 40-90 ms for the forward and backward
     passes). The flag belongs to a thread, and a worker thread of torch takes it from the thread that starts it, for
-    good: so each thread here sets it only for its own update, in which torch runs no worker (one intra-op thread),
-    and the forward and backward passes, whatever threads run them and whenever they were started, never flush.
-
-    The update is elementwise and each parameter is updated whole by one thread, as a one-thread step updates it:
-    the result is that of one thread, bit for bit (``tests/test_train.py``). The parameters are dealt out largest
-    first to the thread with the fewest elements so far. On 2 idle cores the paper's network's step at ``quick``
-    (12.2 million weights, half of a training step's time) took 17.4 ms in one thread and 12.7 ms in two, whose
-    largest share, the first layer's 7.4 million weights, sets the pace.
+    good: so it is set only while no worker runs (one thread), and the forward and backward passes, whatever threads
+    run them and whenever they were started, never flush. The update is elementwise: its result is that of any
+    number of threads.
     """
     if device.type != "cpu":
         optimizer.step()
         return
     threads = torch.get_num_threads()
-    shares = _shares(optimizer, threads)
-    try:
-        for _ in thread_map(_flushed_step, shares, threads=len(shares), hold_blas=False):
-            pass
-    finally:
-        torch.set_num_threads(threads)
-
-
-def _flushed_step(optimizer) -> None:
-    """``optimizer.step()`` in this thread alone, flushing subnormal numbers, then this thread's flag as it was."""
     torch.set_num_threads(1)
     flushed = not _flushing() and torch.set_flush_denormal(True)
     try:
@@ -158,29 +141,7 @@ def _flushed_step(optimizer) -> None:
     finally:
         if flushed:
             torch.set_flush_denormal(False)
-
-
-def _shares(optimizer, n: int) -> list:
-    """Up to ``n`` views of ``optimizer`` (its class, hyperparameters and state) over disjoint sets of its parameters
-    that have gradients, about equal in elements; ``[optimizer]`` itself for ``n`` ≤ 1 or a single parameter.
-    """
-    params = [p for group in optimizer.param_groups for p in group["params"] if p.grad is not None]
-    if n <= 1 or len(params) <= 1:
-        return [optimizer]
-    bins, load = [[] for _ in range(min(n, len(params)))], [0] * min(n, len(params))
-    for p in sorted(params, key=lambda p: -p.numel()):  # stable: the same deal on every step and every machine
-        lightest = load.index(min(load))
-        bins[lightest].append(p)
-        load[lightest] += p.numel()
-    views = []
-    for share in bins:
-        mine = {id(p) for p in share}
-        groups = [dict(g, params=[p for p in g["params"] if id(p) in mine]) for g in optimizer.param_groups]
-        groups = [g for g in groups if g["params"]]
-        view = object.__new__(type(optimizer))  # the pickling protocol's way to a second optimiser on one state
-        view.__setstate__({"defaults": optimizer.defaults, "state": optimizer.state, "param_groups": groups})
-        views.append(view)
-    return views
+        torch.set_num_threads(threads)
 
 
 def _flushing() -> bool:

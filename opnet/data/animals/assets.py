@@ -81,7 +81,8 @@ def read_rig(name: str) -> Rig:
 
 class _Json(types.SimpleNamespace):
     """A glTF JSON object read as attributes (``node.mesh``, ``prim.attributes.POSITION``): a property the file leaves
-    out reads ``None``, and the reader applies glTF's default where it reads one (``node.scale or (1, 1, 1)``).
+    out reads ``None``, and the reader applies glTF's default where it reads one (``node.scale or (1, 1, 1)``,
+    ``sampler.interpolation or "LINEAR"``).
     """
 
     def __getattr__(self, name: str):
@@ -110,14 +111,20 @@ def _load(path: Path) -> tuple:
             f"{path} is not a glTF 2.0 binary (magic {magic:#x}, version {version}, length {length} of "
             f"{len(data)} bytes): reinstall the asset package: {INSTALL}."
         )
-    chunks, offset = {}, 12
+    chunks, offset = [], 12
     while offset + 8 <= length:
         size, kind = struct.unpack_from("<II", data, offset)
-        chunks.setdefault(kind, data[offset + 8 : offset + 8 + size])
+        if offset + 8 + size > length:
+            raise ValueError(f"{path}: a chunk runs past the file's end: reinstall the asset package: {INSTALL}.")
+        chunks.append((kind, data[offset + 8 : offset + 8 + size]))
         offset += 8 + size
-    if _JSON_CHUNK not in chunks:
-        raise ValueError(f"{path} has no JSON chunk: reinstall the asset package: {INSTALL}.")
-    return json.loads(chunks[_JSON_CHUNK], object_hook=lambda d: _Json(**d)), chunks.get(_BIN_CHUNK, b"")
+    if not chunks or chunks[0][0] != _JSON_CHUNK:
+        raise ValueError(f"{path} does not start with a JSON chunk: reinstall the asset package: {INSTALL}.")
+    gltf = json.loads(chunks[0][1], object_hook=lambda d: _Json(**d))
+    binary = chunks[1][1] if len(chunks) > 1 and chunks[1][0] == _BIN_CHUNK else b""
+    if any(buffer.uri is not None for buffer in (gltf.buffers or ())[:1]):
+        raise ValueError(f"{path}: its buffer 0 is an external file; opnet reads the binary chunk of a .glb only.")
+    return gltf, binary
 
 
 def _rig(name: str, gltf: _Json, blob: bytes, scale: float) -> Rig:
@@ -244,15 +251,15 @@ def _clip(gltf, blob: bytes, animation, species: str) -> Clip:
     channels = {}
     for channel in animation.channels:
         sampler = animation.samplers[channel.sampler]
-        if sampler.interpolation not in ("LINEAR", "STEP"):
+        interpolation = sampler.interpolation or "LINEAR"  # glTF's default
+        if interpolation not in ("LINEAR", "STEP"):
             raise ValueError(
-                f"{species}, clip {animation.name!r}: {sampler.interpolation} interpolation is not read (only "
-                "LINEAR and STEP)."
+                f"{species}, clip {animation.name!r}: {interpolation} interpolation is not read (only LINEAR and STEP)."
             )
         if channel.target.path not in ("translation", "rotation", "scale") or channel.target.node is None:
             continue  # morph-target weights, or a channel of no node (glTF extensions): the assets have none
         times = _accessor(gltf, blob, sampler.input)[:, 0].astype(np.float64)
         values = _accessor(gltf, blob, sampler.output).astype(np.float64)
-        channels[channel.target.node, channel.target.path] = (times, values, sampler.interpolation)
+        channels[channel.target.node, channel.target.path] = (times, values, interpolation)
     duration = max((t[-1] for t, _, _ in channels.values()), default=0.0)
     return Clip(animation.name, float(duration), channels)

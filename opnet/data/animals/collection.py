@@ -220,19 +220,21 @@ def registered_species(root=None, progress: bool | None = None) -> Bodies:
 
 
 def _registered_rigs(source, names: list):
-    """:func:`~.registration.registered_rig` of ``source`` onto each species of ``names``, yielded in order: in joblib
-    processes, one per core (:func:`opnet._parallel.usable_cores`), or here where joblib (the ``data`` extra) is
-    missing. The rigs are the same either way, bit for bit (closest points, sparse solves and k-d trees take no thread
-    count; ``tests/test_animal_collection.py`` compares the two).
+    """:func:`~.registration.registered_rig` of ``source`` onto each species of ``names``, yielded in order: in
+    joblib's own processes (loky, whatever backend the caller configured), one per core
+    (:func:`opnet._parallel.usable_cores`); here, one after the other, on one core or where joblib (the ``data``
+    extra) is missing. The rigs are the same either way, bit for bit (closest points, sparse solves and k-d trees take
+    no thread count; ``tests/test_animal_collection.py`` compares the two).
     """
     from ..._parallel import usable_cores
 
-    if importlib.util.find_spec("joblib") is None:
+    workers = min(usable_cores(), len(names))
+    if workers <= 1 or importlib.util.find_spec("joblib") is None:
         yield from (registered_rig(source, read_rig(name)) for name in names)
         return
     import joblib
 
-    with joblib.Parallel(n_jobs=min(usable_cores(), len(names)), return_as="generator") as parallel:
+    with joblib.Parallel(n_jobs=workers, backend="loky", return_as="generator") as parallel:
         yield from parallel(joblib.delayed(_registered_onto)(source, name) for name in names)
 
 
