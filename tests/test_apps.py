@@ -379,6 +379,7 @@ def test_widgets_follow_their_controls(humans):
     assert "true X" not in box.titles
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # an algebra whose every path is stuck: NaN, no numpy warning
 def test_benchmarks_rows(humans):
     P = apps.interpolation_paths(humans, "body", 2, steps=5)
     assert P.truth.shape == (2, 5, *humans.vertices.shape[1:])
