@@ -200,11 +200,9 @@ def registered_species(root=None, progress: bool | None = None) -> Bodies:
                 ]
         else:
             rigs = [body_template(read_rig(names[0]))]
-            bar = tqdm(total=len(names) - 1, desc="registering species", unit="species", disable=progress is False)
-            for registered in _registered_rigs(rigs[0], names[1:]):
-                rigs.append(registered)
-                bar.update()
-            bar.close()
+            registered = _registered_rigs(rigs[0], names[1:])
+            bar = dict(total=len(names) - 1, desc="registering species", unit="species", disable=progress is False)
+            rigs += tqdm(registered, **bar)
         _REGISTERED[digest] = _bodies(names, rigs)
     bodies = _REGISTERED[digest]
     if not path.is_file() and (built or root is not None):  # built now, or earlier in this process for another root
