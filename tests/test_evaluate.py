@@ -6,10 +6,12 @@ pytest.importorskip("torch")  # the net extra: skipped by a core-only install
 
 import dataclasses
 import json
+from pathlib import Path
 
 import numpy as np
 
 import opnet
+import opnet.plotting
 from opnet import evaluate, reproduce, train
 from opnet.data import toy
 from opnet.experiments import claims
@@ -344,7 +346,7 @@ def test_reproduce_with_seeds_gives_the_applications_intervals_and_judges_their_
     assert apps_of(again) == apps_of(rows)
 
 
-def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_loads, tiny_collection):
+def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_loads, tiny_collection, monkeypatch):
     """Table 1's Comp networks train on operators through computed maps; test shapes on 2k and 5k meshes are decoded
     by them and by Table 1's, beside the exact 1k operators of the same shapes."""
     few = humans.subset(np.concatenate([humans.indices(s)[::16] for s in opnet.data.SPLITS]))  # 3 test shapes
@@ -422,9 +424,27 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_
     # FuncChar's geometric reconstruction of the 5k inputs (the paper's appendix), its channels through their own maps
     fields = {"one": dict(entry="int+ext", **plan["int+ext"].run_fields())}
     few_steps = dataclasses.replace(budget, refine_steps=3)
+    drawn = {}  # the figure's reconstructions, by name (recorded instead of rendered)
+
+    class Plotter:
+        def screenshot(self, path):
+            Path(path).write_bytes(b"png")
+
+        def close(self):
+            pass
+
+    def record(maps, reconstructions, truth, **options):
+        drawn.update(reconstructions, truth=truth)
+        return Plotter()
+
+    monkeypatch.setattr(opnet.plotting, "plot_mapped_reconstructions", record)
     with_fc = reproduce.discretisation_rows(
-        few, {"one": runs[0].net}, few_steps, fields=fields, comp=comp, data_root=str(data), funcchar=True
-    )
+        few, {"one": runs[0].net}, few_steps, fields=fields, comp=comp, data_root=str(data), funcchar=True,
+        out=tmp_path / "fc",
+    )  # fmt: skip
+    assert set(drawn) == {"one", "FuncChar (Int+Ext)", "truth"}  # FuncChar's reconstruction beside the network's
+    assert drawn["FuncChar (Int+Ext)"].shape == drawn["truth"].shape and np.isfinite(drawn["FuncChar (Int+Ext)"]).all()
+    assert not np.allclose(drawn["FuncChar (Int+Ext)"], drawn["one"])
     (fc,) = [r for r in with_fc if r.get("baseline") == "funcchar"]
     assert (fc["resolution"], fc["maps"], fc["method"], fc["table"]) == (
         "5k",

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .._extras import require
-from ..evaluate import evenly_spaced, operatornet_method, test_set_indices
+from ..evaluate import Method, evenly_spaced, operatornet_method, test_set_indices
 from .paper import PAPER_ABLATION_DEPTHS
 from .report import MAPPED_GROUPS, PAPER_TABLE1_ROWS, ablation_columns, ablation_table, matches, row_key
 
@@ -195,11 +195,12 @@ def refinement_figures(out: Path, coll, net_method, steps: int, *, device="cpu",
 def discretisation_figure(mapped, nets: dict, shapes: int | None = None, *, labels: dict | None = None):
     """The ``shapes`` shapes (default three, or all of a smaller ``mapped``) of ``mapped``
     (:func:`opnet.data.mapped_collection` with computed maps) that are farthest from the base (the most deformed), on
-    their own mesh through their maps onto the base, and each network's reconstruction (name → network) coloured by
-    its error: a pyvista plotter (:func:`opnet.plotting.plot_mapped_reconstructions`; the maps are computed again, as
-    they were for its operators: seconds each). ``labels``: name → ``mapped`` with the vertices and faces a network of
-    ``nets`` decodes to when they are another mesh's (a network trained with finer labels,
-    :func:`opnet.data.labels_collection`), the shapes it is measured against.
+    their own mesh through their maps onto the base, and each reconstruction coloured by its error: a pyvista plotter
+    (:func:`opnet.plotting.plot_mapped_reconstructions`; the maps are computed again, as they were for its operators:
+    seconds each). ``nets``: name → network, or → an :class:`opnet.evaluate.Method` of the same shapes in the same
+    order (a geometric reconstruction such as FuncChar's, whose collection carries other channels). ``labels``:
+    name → ``mapped`` with the vertices and faces a network of ``nets`` decodes to when they are another mesh's (a
+    network trained with finer labels, :func:`opnet.data.labels_collection`), the shapes it is measured against.
     """
     from ..data import Collection
     from ..data.generators import generate_shapes
@@ -226,7 +227,8 @@ def discretisation_figure(mapped, nets: dict, shapes: int | None = None, *, labe
     maps = [compute_map(mapped.base_basis, Mesh(v, human_faces(res)), k=k, base_spectrum=spectrum) for v in fine]
     labels = labels or {}
     on = {name: labels.get(name, mapped) for name in nets}
-    recon = {name: operatornet_method(net, on[name], name).reconstruct(far) for name, net in nets.items()}
+    methods = {n: m if isinstance(m, Method) else operatornet_method(m, on[n], n) for n, m in nets.items()}
+    recon = {name: method.reconstruct(far) for name, method in methods.items()}
     other = {name: (c.vertices[far], c.faces) for name, c in labels.items()}
     return plot_mapped_reconstructions(maps, recon, mapped.vertices[far], labels=other)
 

@@ -83,7 +83,8 @@ def discretisation_rows(
     ``discretisation.png`` there (:func:`discretisation_figure` of three 5k shapes, or as many as the budget maps, by
     the networks named in ``shown``, default all). ``funcchar``: also FuncChar (Int+Ext)'s geometric reconstruction of
     the 5k shapes through the computed maps (the paper's appendix, Fig. 12's bottom row; ``baseline`` ``"funcchar"``,
-    at most ``budget.refine_shapes`` shapes, on ``device``), its four channels carried through maps of their own.
+    at most ``budget.refine_shapes`` shapes, on ``device``), its four channels carried through maps of their own, and
+    drawn in the figure beside the networks.
     ``labels``: name → the collection a network of ``nets`` was trained on when its labels are on another mesh
     (:func:`opnet.data.labels_collection` of ``coll``: the paper's network trained with 2k-vertex labels); it decodes
     the same encodings and is measured against those shapes on that mesh.
@@ -99,7 +100,7 @@ def discretisation_rows(
         else:
             encodings[res, maps] = mapped_collection(coll, res, maps, indices=idx, root=data_root, progress=progress)
     decoders = {name: list(n) if isinstance(n, (list, tuple)) else [n] for name, n in nets.items()}
-    rows = []
+    rows, geometric = [], {}
     for (res, maps), c in encodings.items():
         error = float(np.mean(c.params["map_error"])) if "map_error" in c.params else 0.0
         where = dict(table="discretisation", resolution=res, maps=maps, map_error=error)
@@ -122,12 +123,13 @@ def discretisation_rows(
         )
         method = replace(method, info={**method.info, **where})
         rows += evaluate(c, [method], ("test",), extra=extra, per_shape=True)
+        geometric[method.name] = method  # drawn beside the networks (the same shapes, in the same order)
     if out is not None:
         names = [name for name in shown if name in decoders] or list(decoders)
         picked = {name: _network(decoders[name][0]) for name in names}  # a replicated one: its first seed
         fine = encodings["5k", "computed"]
         on = {name: _labelled(fine, lab, idx) for name, lab in (labels or {}).items() if name in picked}
-        plotter = discretisation_figure(fine, picked, labels=on)
+        plotter = discretisation_figure(fine, picked | geometric, labels=on)
         Path(out).mkdir(parents=True, exist_ok=True)
         plotter.screenshot(str(Path(out) / "discretisation.png"))
         plotter.close()
