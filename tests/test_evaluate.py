@@ -455,6 +455,10 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_
     assert fc["n_shapes"] == 2 and np.isfinite(fc["d_R"]) and fc["channels"] == list(reproduce.FUNCCHAR)
     assert 0 < fc["map_error"] < 0.05 and fc["map_error"] == pytest.approx(errors["5k", "computed"], rel=0.5)
     assert not claims.judge("5k-funcchar-behind", with_fc).missing  # the claim finds its two rows
+    # the figure's shapes are its row's, in its order: each drawn reconstruction's d_R is the row's for that shape
+    assert fc["shapes"] == [0, 1]  # the two shapes mapped, both drawn (the three farthest, or as many as there are)
+    drawn_d_R = opnet.d_R(drawn["truth"], drawn["FuncChar (Int+Ext)"])
+    np.testing.assert_allclose(drawn_d_R, fc["d_R_shapes"], rtol=1e-6)
     with pytest.raises(ValueError, match="generated 1k humans|not made by a generator"):
         opnet.data.mapped_collection(tiny_collection("humans"), "2k")
     with pytest.raises(ValueError, match="shapes must be"):

@@ -217,7 +217,7 @@ def discretisation_figure(mapped, nets: dict, shapes: int | None = None, *, labe
     if not isinstance(shapes, (int, np.integer)) or isinstance(shapes, bool) or not 1 <= shapes <= len(mapped):
         raise ValueError(f"shapes must be an integer from 1 to len(mapped) = {len(mapped)}, got {shapes!r}.")
     if not nets:
-        raise ValueError("nets is empty: give at least one name → network.")
+        raise ValueError("nets is empty: give at least one name → network (or → opnet.evaluate.Method).")
     headless()
     base = np.broadcast_to(mapped.base_basis.mesh.vertices, mapped.vertices.shape)
     far = np.sort(np.argsort(d_R(mapped.vertices, base))[-shapes:])

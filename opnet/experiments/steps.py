@@ -118,6 +118,8 @@ def discretisation_rows(
 
         c = mapped_collection(coll, "5k", "computed", indices=idx, root=data_root, progress=progress, channels=FUNCCHAR)
         method = baseline_method("funcchar", c, budget, device)
+        if method.name in decoders:  # the figure draws both under their names
+            raise ValueError(f"a network is named {method.name!r}, as FuncChar's row is: name it otherwise.")
         where = dict(
             table="discretisation", resolution="5k", maps="computed", map_error=float(np.mean(c.params["map_error"]))
         )
