@@ -145,3 +145,18 @@ def test_a_baseline_measured_on_a_few_shapes_is_paired_on_those():
     for other in ("far", "part"):  # none shared, or some: not one test set's subset
         with pytest.raises(ValueError, match="neither's are a subset of the other's"):
             stats.compare(rows, dict(method="net"), dict(method=other))
+
+
+def test_a_row_prints_its_interval_where_it_has_one():
+    """``report.value_text``: a row over seeds as ``mean ± half-width``, one training as its value, nothing as "–"."""
+    from opnet.experiments import report
+
+    def row(s):
+        errors = [1e-4 * (1 + s + 0.1 * i) for i in range(5)]
+        return dict(d_R=float(np.mean(errors)), d_R_shapes=errors, shapes=list(range(5)), seed=s)
+
+    seeded = stats.summarize_seeds([row(s) for s in range(3)], metrics=("d_R",))
+    half = (seeded["d_R_high"] - seeded["d_R_low"]) / 2
+    assert half > 0 and report.value_text(seeded, "d_R", 1e4) == f"{1e4 * seeded['d_R']:.3g} ± {1e4 * half:.2g}"
+    assert report.value_text(row(0), "d_R", 1e4) == "1.2"  # one training: its value, three significant digits
+    assert report.value_text(dict(d_R=float("nan")), "d_R") == report.value_text({}, "d_V") == "–"

@@ -40,6 +40,7 @@ __all__ = [
     "context_markdown",
     "table1_markdown",
     "headline_markdown",
+    "value_text",
     "ablation_markdown",
     "discretisation_markdown",
     "read_results",
@@ -176,9 +177,10 @@ def ablation_table(rows, value: str = "mean") -> np.ndarray:
     return table
 
 
-def _pm(row: dict, metric: str, scale: float = 1.0) -> str:
-    """A row's ``metric`` as a table prints it: ``mean ± half-width`` of its 95 % interval where it has one (a row over
-    seeds, :func:`opnet.experiments.stats.summarize_seeds`), else the mean.
+def value_text(row: dict, metric: str, scale: float = 1.0) -> str:
+    """A row's ``metric`` (``"d_R"``, ``"d_V"``, ``"d_E"``...) times ``scale`` as the tables print it, three
+    significant digits: ``mean ± half-width`` of its 95 % interval where it has one (a row over seeds,
+    :func:`opnet.experiments.stats.summarize_seeds`), else the value; ``"–"`` where it is missing or not finite.
     """
     low, high = row.get(f"{metric}_low"), row.get(f"{metric}_high")
     if low is None or high is None:
@@ -454,7 +456,11 @@ def table1_markdown(rows: list[dict], paper: bool = True) -> list[str]:
         for s in splits:
             r = next((r for r in mine if r["split"] == s), None)
             cells += (
-                [_pm(r, "d_R", 1e4) + f" ({_fmt(r['d_R_median'], 1e4)})", _pm(r, "d_V"), _pm(r, "d_E")]
+                [
+                    value_text(r, "d_R", 1e4) + f" ({_fmt(r['d_R_median'], 1e4)})",
+                    value_text(r, "d_V"),
+                    value_text(r, "d_E"),
+                ]
                 if r
                 else ["–"] * 3
             )
