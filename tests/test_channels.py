@@ -383,6 +383,7 @@ def test_the_ablation_is_a_list_of_runs(stored, Radial, tmp_path):
     )
     text = table.markdown()
     assert "| Area+radial area |" in text and "depth 2" in text and "baseline" in text
+    assert text.startswith("d_R ×10⁻⁴ on val") and table.markdown(scale=2).startswith("d_R ×0.5 on val")  # the unit
     again = opnet.ablation(
         mine, channel_sets=[["area"]], depths=[1], epochs=1, run_root=tmp_path, baselines=False, **FAST
     )

@@ -5,6 +5,7 @@ ablation over any channels (:func:`ablation`, :func:`opnet.ablation`).
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -105,7 +106,7 @@ class Results(list):
         head = ["channels", *[f"depth {d}" if d is not None else "baseline" for d in depths]]
         split = split or next((r["split"] for r in self), "")
         lines = [
-            f"{metric} ×{1 / scale:g} on {split}" if scale != 1 else f"{metric} on {split}",
+            f"{metric} ×{_power_text(1 / scale)} on {split}" if scale != 1 else f"{metric} on {split}",
             "",
             "| " + " | ".join(head) + " |",
             "|" + "---|" * len(head),
@@ -478,3 +479,11 @@ def run_entries(
         if saved is not None:
             saved(rows)
     return rows, done
+
+
+def _power_text(factor: float) -> str:
+    """``factor`` as the tables write their units: ``10⁻⁴`` for a power of ten, else ``%g`` (``0.5``)."""
+    exponent = round(math.log10(factor)) if factor > 0 else None
+    if exponent is None or not math.isclose(factor, 10.0**exponent, rel_tol=1e-9):
+        return f"{factor:g}"
+    return "10" + str(exponent).translate(str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹"))
