@@ -160,3 +160,26 @@ def test_a_row_prints_its_interval_where_it_has_one():
     assert half > 0 and report.value_text(seeded, "d_R", 1e4) == f"{1e4 * seeded['d_R']:.3g} ± {1e4 * half:.2g}"
     assert report.value_text(row(0), "d_R", 1e4) == "1.2"  # one training: its value, three significant digits
     assert report.value_text(dict(d_R=float("nan")), "d_R") == report.value_text({}, "d_V") == "–"
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_the_seeded_applications_keep_a_worst_step_that_no_seed_measured_as_nan_without_a_warning(monkeypatch):
+    """Where every path of every seed is stuck (a network that outputs one shape), the worst step over the seeds is
+    NaN, as each seed's, and numpy's all-NaN warning is not raised; where one seed measured it, its value is kept."""
+    from types import SimpleNamespace
+
+    from opnet.experiments import steps
+
+    def rows(worst):
+        shapes = {f"{m}_shapes": [float("nan"), float("nan")] for m in steps.PATH_METRICS}
+        return [dict(table="interpolation", method="net", kind="pose", run="r", shapes=[0, 1], smoothness_max=worst,
+                     **shapes)]  # fmt: skip
+
+    for worst, expected in (((float("nan"), float("nan")), None), ((float("nan"), 0.25), 0.25)):
+        measured = iter(worst)
+        monkeypatch.setattr(steps, "application_methods", lambda *a, **k: [])
+        monkeypatch.setattr(steps, "applications_rows", lambda *a, **k: rows(next(measured)))
+        seeds = [{"int+ext": SimpleNamespace(spec=SimpleNamespace(seed=s))} for s in (0, 1)]
+        (row,) = steps.seeded_applications_rows(None, seeds, None)
+        assert row["seeds"] == [0, 1]
+        assert np.isnan(row["smoothness_max"]) if expected is None else row["smoothness_max"] == expected
