@@ -500,6 +500,9 @@ def test_budgets_name_their_schedule_seeds_and_grid_and_the_papers_code_budget_i
     ]
     line = next(x for x in claims.claims_markdown(rows) if "within 5×" in x)
     assert "3 / 5 × 1" in line and "(means: holds)" in line
+    nan = dict(rows[0], d_R=float("nan"))  # a mean not measured (NaN) holds nothing, and prints as missing
+    line = next(x for x in claims.claims_markdown([nan, rows[1]]) if "within 5×" in x)
+    assert "– / 5 × 1" in line and "(means:" not in line and "inconclusive" in line
     pytest.importorskip("torch")  # the command line's parser holds `train`
     args = _parser().parse_args(["reproduce", "--budget", "paper-code", "--ablation-grid", "cross"])
     assert (args.training_budget, args.ablation_grid) == ("paper-code", "cross")

@@ -16,6 +16,7 @@ The verdict is measured, never written by hand; :func:`claims_markdown` lays the
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -362,10 +363,17 @@ def claims_markdown(rows, claims=CLAIMS) -> list[str]:
             means, holds = "several rows", ""
         else:
             times = "" if c.factor == 1 else f"{c.factor:g} × "
-            means = f"{scale * j.better_mean:.3g} / {times}{scale * j.worse_mean:.3g}"
+            means = f"{_mean_text(j.better_mean, scale)} / {times}{_mean_text(j.worse_mean, scale)}"
+            measured = math.isfinite(j.better_mean) and math.isfinite(j.worse_mean)  # NaN: e.g. every path stuck
             worse = j.better_mean >= c.factor * j.worse_mean
-            holds = "" if j.comparison is not None else (" (means: not)" if worse else " (means: holds)")
+            holds = (
+                "" if j.comparison is not None or not measured else (" (means: not)" if worse else " (means: holds)")
+            )
         who = f"{c.statement}{' (ours)' if c.ours else ''}"
         lines.append(f"| {who} | {c.source} | {c.paper or '–'} | {means} | {diff} | **{j.verdict}**{holds} |")
     unit = "d_R ×10⁻⁴ m²; smoothness: the largest step over the path length."
     return lines + ["", unit]
+
+
+def _mean_text(value: float, scale: float) -> str:
+    return f"{scale * value:.3g}" if math.isfinite(value) else "–"
