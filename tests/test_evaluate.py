@@ -14,7 +14,7 @@ import opnet
 import opnet.plotting
 from opnet import evaluate, reproduce, train
 from opnet.data import toy
-from opnet.experiments import claims
+from opnet.experiments import claims, report
 from opnet.experiments.baselines import FUNCCHAR_INT
 from opnet.experiments.report import MAPPED_GROUPS, headline_markdown, row_identity
 from opnet.experiments.steps import DISCRETISATIONS
@@ -324,6 +324,10 @@ def test_reproduce_with_seeds_gives_the_applications_intervals_and_judges_their_
     assert apps and all(r["seeds"] == [0, 1] and len(r["provenance"]["runs"]) == 2 * len(networks) for r in apps)
     ana = next(r for r in apps if r["table"] == "analogy" and r["method"] == "PointNet AE" and r["kind"] == "pose")
     assert np.shape(ana["d_R_shapes"]) == (2, 4) and ana["d_R_low"] <= ana["d_R"] <= ana["d_R_high"]
+    md = (tmp_path / "results.md").read_text()  # the tables print the interval: mean ± half-width
+    assert f"| PointNet AE | 4 | {report.value_text(ana, 'd_R', 1e4)} (" in md and " ± " in report.value_text(
+        ana, "d_R"
+    )
     itp = next(r for r in apps if r["table"] == "interpolation" and r["method"] == "OperatorNet (linear)")
     assert np.shape(itp["smoothness_shapes"]) == (2, 2) and itp["smoothness_seeds"] is not None
     nn = [r for r in rows if r["table"] == "analogy" and r.get("baseline") == "nearest_neighbour"]

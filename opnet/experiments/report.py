@@ -177,6 +177,10 @@ def ablation_table(rows, value: str = "mean") -> np.ndarray:
     return table
 
 
+#: How the tables say what a row over seeds prints.
+_SEEDED = "a network trained with several seeds: mean ± half-width of the 95 % interval"
+
+
 def value_text(row: dict, metric: str, scale: float = 1.0) -> str:
     """A row's ``metric`` (``"d_R"``, ``"d_V"``, ``"d_E"``...) times ``scale`` as the tables print it, three
     significant digits: ``mean ± half-width`` of its 95 % interval where it has one (a row over seeds,
@@ -435,8 +439,7 @@ def table1_markdown(rows: list[dict], paper: bool = True) -> list[str]:
     if not t1:
         return []
     lines = [
-        "d_R ×10⁻⁴ (m²), mean (median in brackets); a network trained with several seeds: mean ± half-width of the "
-        "95 % interval over seeds and shapes.",
+        f"d_R ×10⁻⁴ (m²), mean (median in brackets); {_SEEDED} over seeds and shapes.",
         "",
     ]
     keys = list(dict.fromkeys(row_key(r) for r in t1))
@@ -597,7 +600,8 @@ def discretisation_markdown(rows: list[dict]) -> list[str]:
     lines = [
         f"{disc[0]['n_shapes']} `test` shapes (evenly spaced) generated on each mesh, mapped onto the 1k base "
         "by the generator's true correspondence or by a computed map (`opnet.matching.compute_map`), encoded "
-        "through the map and decoded by each network; d_R ×10⁻⁴ against the 1k shapes (median in brackets). "
+        "through the map and decoded by each network; d_R ×10⁻⁴ against the 1k shapes (median in brackets; "
+        f"{_SEEDED}). "
         "Map error: mean distance between where the computed and the true map send a vertex. *1k exact*: the "
         "same shapes' own operators."
         + "".join(
@@ -617,7 +621,7 @@ def discretisation_markdown(rows: list[dict]) -> list[str]:
     for res, maps in encodings:
         first = get[res, maps, nets[0]]
         cells = [
-            f"{_fmt(get[res, maps, n]['d_R'], 1e4)} ({_fmt(get[res, maps, n]['d_R_median'], 1e4)})"
+            f"{value_text(get[res, maps, n], 'd_R', 1e4)} ({_fmt(get[res, maps, n]['d_R_median'], 1e4)})"
             if (res, maps, n) in get
             else "–"
             for n in nets
@@ -652,8 +656,9 @@ def applications_markdown(rows: list[dict], context: dict | None = None) -> list
         return []
     lines = [
         "Subjects from `test_subjects`, poses from the `test` sequences; the true shapes are generated from the "
-        "generator's parameters (`opnet.apps`). d_R ×10⁻⁴ (median in brackets). *direct*: the same method on "
-        "X given X itself (its floor: the rest is the algebra's error).",
+        "generator's parameters (`opnet.apps`). d_R ×10⁻⁴ (median in brackets; "
+        f"{_SEEDED}, over seeds and questions or paths). *direct*: the same method on X given X itself (its floor: "
+        "the rest is the algebra's error).",
     ]
     for kind in dict.fromkeys(r["kind"] for r in ana):
         part = [r for r in ana if r["kind"] == kind]
@@ -667,8 +672,8 @@ def applications_markdown(rows: list[dict], context: dict | None = None) -> list
         for r in part:
             before = f" (before: {_fmt(r['d_R_before'], 1e4)})" if "d_R_before" in r else ""
             lines.append(
-                f"| {r['method']} | {r['n']} | {_fmt(r['d_R'], 1e4)} ({_fmt(r['d_R_median'], 1e4)}){before} | "
-                f"{_fmt(r['d_V'])} | {_fmt(r['d_E'])} | {_fmt(r['d_R_direct'], 1e4)} |"
+                f"| {r['method']} | {r['n']} | {value_text(r, 'd_R', 1e4)} ({_fmt(r['d_R_median'], 1e4)}){before} | "
+                f"{value_text(r, 'd_V')} | {value_text(r, 'd_E')} | {_fmt(r['d_R_direct'], 1e4)} |"
             )
     for kind in dict.fromkeys(r["kind"] for r in itp):
         part = [r for r in itp if r["kind"] == kind]
@@ -682,8 +687,9 @@ def applications_markdown(rows: list[dict], context: dict | None = None) -> list
         ]
         for r in part:
             lines.append(
-                f"| {r['method']} | {r['n_paths']} | {_fmt(r['endpoint_d_R'], 1e4)} | {_fmt(r['d_R_truth'], 1e4)} | "
-                f"{_fmt(r['distortion'])} | {_fmt(r['smoothness'])} ({_fmt(r['smoothness_max'])}) |"
+                f"| {r['method']} | {r['n_paths']} | {value_text(r, 'endpoint_d_R', 1e4)} | "
+                f"{value_text(r, 'd_R_truth', 1e4)} | {value_text(r, 'distortion')} | {value_text(r, 'smoothness')} "
+                f"({_fmt(r['smoothness_max'])}) |"
             )
     if itp:
         lines += [
