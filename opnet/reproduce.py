@@ -341,8 +341,13 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
     else:
         algebras = application_methods(ws.coll, per_seed[0], ws.budget, refine=refine, device=ws.device)
         rows = applications_rows(ws.coll, algebras, ws.budget, out=figures, progress=ws.progress)
-    prov = record(runs, context, inputs)
-    return [dict(r, provenance=prov) for r in rows]
+
+    def measured(row) -> list:  # the trainings its own method decoded with, not the whole step's
+        names = row.get("runs") or ([row["run"]] if row.get("run") else [])  # run names, as the specs give them
+        mine = [r for r in runs if r.spec.run_name in names]
+        return mine if mine or not names else list(runs)  # a run it names that the step lacks: all of them
+
+    return [dict(r, provenance=record(measured(r), context, inputs)) for r in rows]
 
 
 def _figures(figures: Path, ws: Workspace, done: dict, refine: bool) -> None:

@@ -320,8 +320,11 @@ def test_reproduce_with_seeds_gives_the_applications_intervals_and_judges_their_
     options = dict(budget=budget, device="cpu", progress=False, ablation=False, maps=False, bodies=False)
     rows = reproduce.reproduce("quick", tmp_path, seeds=2, refine=False, figures=False, **options)
     apps = [r for r in rows if r["table"] in ("analogy", "interpolation") and r.get("run") is not None]
-    networks = ("int+ext", "ours", "pointnet")  # the applications' trained methods (no --points)
-    assert apps and all(r["seeds"] == [0, 1] and len(r["provenance"]["runs"]) == 2 * len(networks) for r in apps)
+    networks = {"int+ext", "ours", "pointnet"}  # the applications' trained methods (no --points)
+    assert {r["entry"] for r in apps} == networks and all(r["seeds"] == [0, 1] for r in apps)
+    for r in apps:  # each row records the trainings its own method decoded with, both seeds of one network
+        mine = r["provenance"]["runs"]  # the run folders: each run's name and its digest
+        assert len(mine) == len(r["runs"]) == 2 and all(x.startswith(f"{n}-") for x, n in zip(mine, r["runs"]))
     ana = next(r for r in apps if r["table"] == "analogy" and r["method"] == "PointNet AE" and r["kind"] == "pose")
     assert np.shape(ana["d_R_shapes"]) == (2, 4) and ana["d_R_low"] <= ana["d_R"] <= ana["d_R_high"]
     md = (tmp_path / "results.md").read_text()  # the tables print the interval: mean ± half-width
@@ -332,6 +335,7 @@ def test_reproduce_with_seeds_gives_the_applications_intervals_and_judges_their_
     assert np.shape(itp["smoothness_shapes"]) == (2, 2) and itp["smoothness_seeds"] is not None
     nn = [r for r in rows if r["table"] == "analogy" and r.get("baseline") == "nearest_neighbour"]
     assert len(nn) == 3 and "seeds" not in nn[0]  # a baseline is the same in every seed: one row per kind
+    assert all(not r["provenance"]["runs"] for r in nn)  # NN decodes with no training
     judged = {j.claim.key: j for j in claims.judge_all(rows, claims.CLAIMS)}
     assert judged["analogy-pose-below-pointnet"].comparison is not None  # measured, with its interval
     smooth = judged["interpolation-body-smoother-than-the linear algebra"]
