@@ -56,6 +56,7 @@ __all__ = [
     "interpolation_paths",
     "interpolation_benchmark",
     "path_metrics",
+    "nan_stat",
     "ANALOGY_KINDS",
     "PATH_KINDS",
 ]
@@ -528,7 +529,7 @@ def path_metrics(path, truth, faces) -> dict:
     )
 
 
-def _nan_stat(stat, values) -> float:
+def nan_stat(stat, values) -> float:
     """``stat`` (``np.nanmean``, ``np.nanmax``) of ``values`` without their NaNs (a stuck path's smoothness); NaN,
     without numpy's warning, when every value is NaN (every path stuck: the row's ``stuck_paths`` says so).
     """
@@ -564,11 +565,11 @@ def interpolation_benchmark(
             if m is not None:  # as the analogy's rows: what tells the two algebras of one network apart
                 row["scheme"] = m.scheme if m.space == "operators" else "latent"
             for key in metrics[0]:
-                row[key] = _nan_stat(np.nanmean, [r[key] for r in metrics])
+                row[key] = nan_stat(np.nanmean, [r[key] for r in metrics])
             if per_shape:
                 row["shapes"] = list(range(n))
                 row |= {f"{key}_shapes": [float(r[key]) for r in metrics] for key in metrics[0]}
-            row["smoothness_max"] = _nan_stat(np.nanmax, [r["smoothness"] for r in metrics])
+            row["smoothness_max"] = nan_stat(np.nanmax, [r["smoothness"] for r in metrics])
             row["stuck_paths"] = int(np.sum([np.isnan(r["smoothness"]) for r in metrics]))
             rows.append(row if m is None else {**row, **m.fields})
             bar.update(1)

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 from .paper import PAPER_ABLATION, PAPER_ABLATION_SETS, PAPER_TABLE1
 from .plan import PAPER_ROWS
-from .rows import as_rows, matches
+from .rows import as_rows, matches, number_text
 
 __all__ = ["Claim", "Judged", "CLAIMS", "VERDICTS", "judge", "judge_all", "claims_markdown"]
 
@@ -363,7 +363,7 @@ def claims_markdown(rows, claims=CLAIMS) -> list[str]:
             means, holds = "several rows", ""
         else:
             times = "" if c.factor == 1 else f"{c.factor:g} × "
-            means = f"{_mean_text(j.better_mean, scale)} / {times}{_mean_text(j.worse_mean, scale)}"
+            means = f"{number_text(j.better_mean, scale)} / {times}{number_text(j.worse_mean, scale)}"
             measured = math.isfinite(j.better_mean) and math.isfinite(j.worse_mean)  # NaN: e.g. every path stuck
             worse = j.better_mean >= c.factor * j.worse_mean
             holds = (
@@ -373,7 +373,3 @@ def claims_markdown(rows, claims=CLAIMS) -> list[str]:
         lines.append(f"| {who} | {c.source} | {c.paper or '–'} | {means} | {diff} | **{j.verdict}**{holds} |")
     unit = "d_R ×10⁻⁴ m²; smoothness: the largest step over the path length."
     return lines + ["", unit]
-
-
-def _mean_text(value: float, scale: float) -> str:
-    return f"{scale * value:.3g}" if math.isfinite(value) else "–"

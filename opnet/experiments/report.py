@@ -26,7 +26,7 @@ from ..evaluate import SPECIES_SETS
 from .claims import claims_markdown
 from .paper import PAPER_ABLATION, PAPER_ABLATION_DEPTHS, PAPER_ABLATION_SETS, PAPER_TABLE1
 from .plan import BUDGETS, PAPER_ROWS, SUBSET_ENTRIES, ablation_label, declare
-from .rows import matches, row_channels
+from .rows import matches, number_text, row_channels
 from .targets import judge, targets_of
 
 __all__ = [
@@ -188,12 +188,8 @@ def value_text(row: dict, metric: str, scale: float = 1.0) -> str:
     """
     low, high = row.get(f"{metric}_low"), row.get(f"{metric}_high")
     if low is None or high is None:
-        return _fmt(row.get(metric), scale)
-    return f"{_fmt(row[metric], scale)} ± {_fmt((high - low) / 2, scale, 2)}"
-
-
-def _fmt(v, scale=1.0, digits=3) -> str:
-    return "–" if v is None or not np.isfinite(v) else f"{scale * v:.{digits}g}"
+        return number_text(row.get(metric), scale)
+    return f"{number_text(row[metric], scale)} ± {number_text((high - low) / 2, scale, 2)}"
 
 
 #: What ``results.json`` holds: ``{"format": RESULTS_FORMAT, "version": RESULTS_VERSION, "context", "rows"}``.
@@ -460,7 +456,7 @@ def table1_markdown(rows: list[dict], paper: bool = True) -> list[str]:
             r = next((r for r in mine if r["split"] == s), None)
             cells += (
                 [
-                    value_text(r, "d_R", 1e4) + f" ({_fmt(r['d_R_median'], 1e4)})",
+                    value_text(r, "d_R", 1e4) + f" ({number_text(r['d_R_median'], 1e4)})",
                     value_text(r, "d_V"),
                     value_text(r, "d_E"),
                 ]
@@ -478,7 +474,7 @@ def table1_markdown(rows: list[dict], paper: bool = True) -> list[str]:
             f"| {name} | "
             + " | ".join(cells)
             + "".join(" | –" if p is None else f" | {p:g}" for p in published)
-            + f" | {'–' if secs is None else f'{secs:.0f}'} | {_fmt(per_shape, digits=2)} |"
+            + f" | {'–' if secs is None else f'{secs:.0f}'} | {number_text(per_shape, digits=2)} |"
         )
     lines += [
         "",
@@ -525,8 +521,9 @@ def headline_markdown(rows: list[dict]) -> list[str]:
             continue
         paper = paper_table1(test)
         lines.append(
-            f"| {test['method']} | {_fmt(test['d_R'], 1e4)} | {_fmt(test['d_V'])} | {_fmt(test['d_E'])} | "
-            f"{_fmt(None if unseen is None else unseen['d_R'], 1e4)} | "
+            f"| {test['method']} | {number_text(test['d_R'], 1e4)} | {number_text(test['d_V'])} | "
+            f"{number_text(test['d_E'])} | "
+            f"{number_text(None if unseen is None else unseen['d_R'], 1e4)} | "
             f"{'–' if paper is None else ' / '.join(f'{p:g}' for p in paper)} |"
         )
     return lines
@@ -551,7 +548,7 @@ def ablation_markdown(rows: list[dict], budget: dict, paper: bool = True) -> lis
     ]
     for i, d in enumerate(PAPER_ABLATION_DEPTHS):
         best = np.nanargmin(table[i]) if np.isfinite(table[i]).any() else -1
-        cells = [f"**{_fmt(v)}**" if j == best else _fmt(v) for j, v in enumerate(table[i])]
+        cells = [f"**{number_text(v)}**" if j == best else number_text(v) for j, v in enumerate(table[i])]
         lines.append(f"| {_encoder(d)} | " + " | ".join(cells) + " |")
     if paper:
         lines += [
@@ -571,7 +568,7 @@ def ablation_markdown(rows: list[dict], budget: dict, paper: bool = True) -> lis
         lines += [
             "",
             f"**Caveat:** with {b['ablation_epochs']} epochs at this preset the ablation networks are barely "
-            f"trained (every cell is above half of NN's {_fmt(nn, 1e4)}), so the differences between cells are "
+            f"trained (every cell is above half of NN's {number_text(nn, 1e4)}), so the differences between cells are "
             "mostly noise: this table shows the pipeline, not the paper's trends. Use a larger preset.",
         ]
     if np.isfinite(table).all():
@@ -581,7 +578,7 @@ def ablation_markdown(rows: list[dict], budget: dict, paper: bool = True) -> lis
             f"All three operators give the best column in {best_col:.0%} of the depths"
             f"{' (the paper: 100 %)' if paper else ''}; "
             f"depth 1 is {'the best' if np.argmin(done) == 0 else 'not the best'} for A+E+C "
-            f"({', '.join(_fmt(v) for v in done)} for depths 1–4).",
+            f"({', '.join(number_text(v) for v in done)} for depths 1–4).",
         ]
     return lines
 
@@ -621,7 +618,7 @@ def discretisation_markdown(rows: list[dict]) -> list[str]:
     for res, maps in encodings:
         first = get[res, maps, nets[0]]
         cells = [
-            f"{value_text(get[res, maps, n], 'd_R', 1e4)} ({_fmt(get[res, maps, n]['d_R_median'], 1e4)})"
+            f"{value_text(get[res, maps, n], 'd_R', 1e4)} ({number_text(get[res, maps, n]['d_R_median'], 1e4)})"
             if (res, maps, n) in get
             else "–"
             for n in nets
@@ -634,11 +631,12 @@ def discretisation_markdown(rows: list[dict]) -> list[str]:
             lines += [
                 "",
                 f"**Target:** {target.label} within {target.threshold:g}× of OperatorNet (Int+Ext)'s error on the "
-                f"exact 1k operators of the same shapes ({_fmt(verdicts[0].denominator, 1e4)}), for each network:",
+                f"exact 1k operators of the same shapes ({number_text(verdicts[0].denominator, 1e4)}), for each "
+                "network:",
                 "",
             ]
             lines += [
-                f"- {v.row['method']}: {_fmt(v.numerator, 1e4)}, {v.value:.1f}×: {'met' if v.met else 'missed'}."
+                f"- {v.row['method']}: {number_text(v.numerator, 1e4)}, {v.value:.1f}×: {'met' if v.met else 'missed'}."
                 for v in verdicts
             ]
     return lines
@@ -670,10 +668,11 @@ def applications_markdown(rows: list[dict], context: dict | None = None) -> list
             "|---|---|---|---|---|---|",
         ]
         for r in part:
-            before = f" (before: {_fmt(r['d_R_before'], 1e4)})" if "d_R_before" in r else ""
+            before = f" (before: {number_text(r['d_R_before'], 1e4)})" if "d_R_before" in r else ""
             lines.append(
-                f"| {r['method']} | {r['n']} | {value_text(r, 'd_R', 1e4)} ({_fmt(r['d_R_median'], 1e4)}){before} | "
-                f"{value_text(r, 'd_V')} | {value_text(r, 'd_E')} | {_fmt(r['d_R_direct'], 1e4)} |"
+                f"| {r['method']} | {r['n']} | {value_text(r, 'd_R', 1e4)} "
+                f"({number_text(r['d_R_median'], 1e4)}){before} | "
+                f"{value_text(r, 'd_V')} | {value_text(r, 'd_E')} | {number_text(r['d_R_direct'], 1e4)} |"
             )
     for kind in dict.fromkeys(r["kind"] for r in itp):
         part = [r for r in itp if r["kind"] == kind]
@@ -689,7 +688,7 @@ def applications_markdown(rows: list[dict], context: dict | None = None) -> list
             lines.append(
                 f"| {r['method']} | {r['n_paths']} | {value_text(r, 'endpoint_d_R', 1e4)} | "
                 f"{value_text(r, 'd_R_truth', 1e4)} | {value_text(r, 'distortion')} | {value_text(r, 'smoothness')} "
-                f"({_fmt(r['smoothness_max'])}) |"
+                f"({number_text(r['smoothness_max'])}) |"
             )
     if itp:
         lines += [
@@ -724,10 +723,10 @@ def _verdict_line(v, paper: bool, scale: float = 1e4) -> str:
     t = v.target
     where = _SPLIT_NAMES.get(t.where.get("split"), t.where.get("split", ""))
     if t.denominator is None:
-        return f"- {where}: {t.label} {_fmt(v.value)} (target {'≥' if t.at_least else '≤'} {t.threshold:g}: " + (
+        return f"- {where}: {t.label} {number_text(v.value)} (target {'≥' if t.at_least else '≤'} {t.threshold:g}: " + (
             f"{'met' if v.met else 'missed'})."
         )
-    numbers = f"{_fmt(v.numerator, scale)} vs {_fmt(v.denominator, scale)} ×10⁻⁴"
+    numbers = f"{number_text(v.numerator, scale)} vs {number_text(v.denominator, scale)} ×10⁻⁴"
     if not paper:
         return f"- {where}: {t.label} = {v.value:.3g} ({numbers})."
     published = "" if t.paper is None else f", the paper {t.paper:.2g}"
@@ -761,17 +760,18 @@ def targets(t1: list[dict], paper: bool = True) -> list[str]:
         if after is not None and before is not None:
             lines.append(
                 f"- test: refinement changes {net['method']}'s d_R by {100 * (after / before - 1):+.0f} % "
-                f"({_fmt(before, 1e4)} → {_fmt(after, 1e4)} ×10⁻⁴ on the same shapes)."
+                f"({number_text(before, 1e4)} → {number_text(after, 1e4)} ×10⁻⁴ on the same shapes)."
             )
     truth = get(_PAPER, "test")
     reference = PAPER_TABLE1["OperatorNet (Int+Ext)"][0]
     funcchar, geometric = _find(t1, "test", baseline="funcchar"), _find(t1, "test", baseline="geometric")
     if funcchar is not None and truth is not None and paper:
         published = PAPER_TABLE1["FuncChar (Int+Ext)"][0] / reference
-        other = f"; Geometric (A+E): {_fmt(geometric['d_R'], 1e4)}" if geometric is not None else ""
+        other = f"; Geometric (A+E): {number_text(geometric['d_R'], 1e4)}" if geometric is not None else ""
         lines.append(
             f"- test: FuncChar (Int+Ext)'s d_R / OperatorNet (Int+Ext)'s = {funcchar['d_R'] / truth:.3g} "
-            f"({_fmt(funcchar['d_R'], 1e4)} on {funcchar['n_shapes']} shapes vs {_fmt(truth, 1e4)} ×10⁻⁴; the paper "
+            f"({number_text(funcchar['d_R'], 1e4)} on {funcchar['n_shapes']} shapes vs {number_text(truth, 1e4)} "
+            "×10⁻⁴; the paper "
             f"{published:.3g}{other})."
         )
     order = [get(PAPER_TABLE1_ROWS[name], "test") for name in _ORDER]
@@ -779,6 +779,6 @@ def targets(t1: list[dict], paper: bool = True) -> list[str]:
         holds = order[0] < order[1] < order[2]
         lines.append(
             f"- ordering Int+Ext < Ext < Int on test (the paper's): {'holds' if holds else 'does not hold'} "
-            f"({' / '.join(_fmt(v, 1e4) for v in order)})."
+            f"({' / '.join(number_text(v, 1e4) for v in order)})."
         )
     return lines

@@ -4,11 +4,12 @@ targets and the figures (nothing finds a row by its display name).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 from ..inner_products import channel_names
 
-__all__ = ["row_channels", "matches", "as_rows"]
+__all__ = ["row_channels", "matches", "as_rows", "number_text"]
 
 
 def as_rows(rows) -> list[dict]:
@@ -38,3 +39,10 @@ def matches(row: dict, **fields) -> bool:
         elif row.get(key) != want:
             return False
     return True
+
+
+def number_text(value, scale: float = 1.0, digits: int = 3) -> str:
+    """``value × scale`` as the tables and claims print a number: ``digits`` significant digits, ``"–"`` where it is
+    missing (``None``) or not finite (a NaN of a path that did not move).
+    """
+    return "–" if value is None or not math.isfinite(value) else f"{scale * value:.{digits}g}"

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from .._checks import check_int
+from ..apps import nan_stat
 from ..data.profiles import profile_of
 from ..evaluate import evaluate, evenly_spaced, operatornet_method, test_set_indices
 from .baselines import REFINE
@@ -291,8 +292,7 @@ def seeded_applications_rows(coll, runs_per_seed: list[dict], budget, *, refine=
         row = summarize_seeds(list(group), metrics=metrics)
         for key, over_seeds in (("d_R_direct", np.mean), ("d_R_before", np.mean), ("smoothness_max", np.nanmax)):
             if first.get(key) is not None:  # a scalar of each seed's: over the seeds, not the first's alone
-                values = np.array([r[key] for r in group], dtype=float)  # NaN: every path of a seed stuck
-                row[key] = float("nan") if np.isnan(values).all() else float(over_seeds(values))
+                row[key] = nan_stat(over_seeds, [r[key] for r in group])  # NaN: every path of every seed stuck
         if "stuck_paths" in first:
             row["stuck_paths"] = int(sum(r["stuck_paths"] for r in group))
         out_rows.append(row)
