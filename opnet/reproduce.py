@@ -182,26 +182,40 @@ def _reproduce(config: ReproduceConfig, out: Path) -> list[dict]:
     extra_channels = [ip.name for ip in new]
     where = dict(device=device, data_root=config.data_root, progress=progress, bar=bar, extra_channels=extra_channels)
     ws = Workspace(coll, profile, out / "runs", budget, **where)
-    if config.jobs > 1:
-        _train_side_by_side(config, ws, plan.entries)
+    order = sorted(plan.entries, key=lambda e: e.table == "ablation")  # the order _run_plan measures them in
+    trained = _SideBySide(config, ws, order) if config.jobs > 1 else None
     figures = out / "figures" if config.figures else None
+    try:
+        rows = _run_plan(config, plan, ws, save, figures, dict(context=row_stamp, earlier=before), trained)
+    finally:
+        if trained is not None:
+            trained.close()
+    bar.close()
+    return rows
+
+
+def _run_plan(config, plan, ws: Workspace, save, figures, kept: dict, trained) -> list[dict]:
+    """The plan's entries but the ablation's, its steps, then the ablation's entries, each written (``save``) once
+    measured; ``kept``: each row's provenance ``context`` and the ``earlier`` rows kept where measured on the same
+    inputs; ``trained``: the :class:`_SideBySide` trainings an entry waits for (``None``: it trains them here).
+    """
     extra = dict(preset=config.preset)
-    first = [e for e in plan.entries if e.table != "ablation"]
     each = config.seeds > 1  # rows then hold their per-shape errors: the claims compare them
-    options = dict(extra=extra, per_shape=each, context=row_stamp, earlier=before)
+    ready = None if trained is None else trained.wait
+    options = dict(extra=extra, per_shape=each, ready=ready, **kept)
+    first = [e for e in plan.entries if e.table != "ablation"]
     rows, done = run_entries(first, ws, saved=save, **options)
     if figures is not None:
         _figures(figures, ws, done, config.refine)
     for step in plan.steps:
-        rows += _step(step.key, ws, done, figures, extra, refine=config.refine, context=row_stamp, earlier=before)
-        bar.update(1)
+        rows += _step(step.key, ws, done, figures, extra, refine=config.refine, **kept)
+        ws.bar.update(1)
         save(rows)
     ablation = [e for e in plan.entries if e.table == "ablation"]
     more, _ = run_entries(ablation, ws, done=done, saved=lambda r: save(rows + r), **options)
     rows = save(rows + more)
     if figures is not None:
         _row_figures(figures, rows, config)
-    bar.close()
     return rows
 
 
@@ -215,33 +229,52 @@ def _collection(config: ReproduceConfig, plan):
     return (coll.with_channels([*coll.channels, *new]) if new else coll), new
 
 
-def _train_side_by_side(config: ReproduceConfig, ws: Workspace, entries) -> None:
-    """Train the unfinished trainings of ``entries`` (:meth:`Workspace.trainings`) in ``config.jobs`` processes, each
-    with an equal share of the cores, into ``ws``'s runs folder; the plan then loads them as finished runs. joblib
-    hands each process its collection (its arrays memory-mapped, not copied); an interrupted run resumes from its
-    last epoch.
+class _SideBySide:
+    """The unfinished trainings of ``entries`` (:meth:`Workspace.trainings`, in the plan's order) in ``config.jobs``
+    processes, each with an equal share of the cores, into ``ws``'s runs folder; :meth:`wait` returns once an entry's
+    own trainings are finished, so that the plan evaluates (and writes) each entry while later ones still train, and
+    an interruption after hours keeps every row measured so far. joblib hands each process its collection (its
+    arrays memory-mapped, not copied); an interrupted run resumes from its last epoch.
     """
-    from tqdm.auto import tqdm
 
-    from ._extras import require
-    from ._parallel import usable_cores
+    def __init__(self, config: ReproduceConfig, ws: Workspace, entries):
+        from tqdm.auto import tqdm
 
-    joblib = require("joblib", "reproduce --jobs")
-    todo = [(spec, ws.data(key, draws)) for key, draws, spec in ws.trainings(entries).values()]
-    todo = [(spec, coll) for spec, coll in todo if not _finished(spec.run_dir(ws.runs_root, coll), spec.epochs)]
-    if not todo:
-        return
-    threads = max(1, usable_cores() // config.jobs)  # a training's share, however many are left (its numbers keep)
-    task = joblib.delayed(_train_one)
-    # config.jobs processes even for one training left: n_jobs=1 would run it in this process (its threads, its watch)
-    parallel = joblib.Parallel(n_jobs=config.jobs, return_as="generator_unordered")
-    bar = tqdm(
-        total=len(todo), desc=f"training {config.jobs} side by side", unit="network", disable=config.progress is False
-    )
-    with bar:
-        for name in parallel(task(spec, coll, str(ws.runs_root), str(ws.device), threads) for spec, coll in todo):
-            bar.set_postfix_str(name)
-            bar.update(1)
+        from ._extras import require
+        from ._parallel import usable_cores
+
+        joblib = require("joblib", "reproduce --jobs")
+        self.ws, self.pending = ws, {}  # digest -> (spec, collection): dispatched, not yet seen finished
+        for digest, (key, draws, one) in ws.trainings(entries).items():
+            coll = ws.data(key, draws)
+            if not _finished(one.run_dir(ws.runs_root, coll), one.epochs):
+                self.pending[digest] = (one, coll)
+        threads = max(1, usable_cores() // config.jobs)  # a training's share, however many are left (its numbers keep)
+        task = joblib.delayed(_train_one)
+        # config.jobs processes even for one training left: n_jobs=1 would run it in this process (its threads, watch)
+        parallel = joblib.Parallel(n_jobs=config.jobs, return_as="generator_unordered")
+        self.bar = tqdm(
+            total=len(self.pending),
+            desc=f"training {config.jobs} side by side",
+            unit="network",
+            disable=config.progress is False or not self.pending,
+        )
+        todo = [task(d, s, c, str(ws.runs_root), str(ws.device), threads) for d, (s, c) in self.pending.items()]
+        self._finishing = parallel(todo) if todo else (d for d in ())
+
+    def wait(self, entry) -> None:
+        """Block until every training ``entry`` declares is finished (at once for a baseline or a refinement)."""
+        waiting = set(self.ws.trainings([entry])) & set(self.pending)
+        while waiting:
+            digest = next(self._finishing)  # the next to finish, of any entry
+            waiting.discard(digest)
+            self.bar.set_postfix_str(self.pending.pop(digest)[0].run_name)
+            self.bar.update(1)
+
+    def close(self) -> None:
+        """Stop the trainings not waited for (none once every entry has been waited for) and the bar."""
+        self._finishing.close()
+        self.bar.close()
 
 
 def _finished(run_dir: Path, epochs: int) -> bool:
@@ -254,8 +287,10 @@ def _finished(run_dir: Path, epochs: int) -> bool:
         return False
 
 
-def _train_one(spec, collection, runs_root: str, device: str, threads: int) -> str:
-    """One training of :func:`_train_side_by_side`, in its own process with ``threads`` threads; its folder's name."""
+def _train_one(digest: str, spec, collection, runs_root: str, device: str, threads: int) -> str:
+    """One training of :class:`_SideBySide`, in its own process with ``threads`` threads; returns ``digest`` (its
+    :func:`opnet.train.run_digest`) once finished.
+    """
     import torch
 
     from ._parallel import exit_with_parent
@@ -263,7 +298,8 @@ def _train_one(spec, collection, runs_root: str, device: str, threads: int) -> s
 
     exit_with_parent()  # a killed reproduce leaves no training behind in its folder
     torch.set_num_threads(threads)
-    return train_run(spec, collection, runs_root, device=device, progress=False).run_id
+    train_run(spec, collection, runs_root, device=device, progress=False)
+    return digest
 
 
 def _context(config: ReproduceConfig, coll, device, plan) -> dict:

@@ -399,8 +399,9 @@ def test_reproduce_records_provenance_keeps_current_rows_and_measures_stale_ones
 
 @pytest.mark.slow
 def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules, tmp_path, monkeypatch):
-    """--jobs 2 trains every network in two other processes before the plan loads them; the rows are those of one
-    process, and the ablation's A+E+C at depth 1 is Table 1's Int+Ext training, not a second one."""
+    """--jobs 2 trains every network in two other processes, and the plan evaluates (and writes) each entry once its
+    own trainings are finished, while later ones still train; the rows are those of one process, and the ablation's
+    A+E+C at depth 1 is Table 1's Int+Ext training, not a second one."""
     torch = pytest.importorskip("torch")
     from opnet.experiments import runner
 
@@ -415,7 +416,22 @@ def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules,
         return real(spec, collection, root, **kw)
 
     monkeypatch.setattr(runner, "train_run", load_only)
+    pipelines, written = [], []  # each write of results.json: its entries, and the trainings still running then
+    real_init, real_write = reproduce._SideBySide.__init__, reproduce.write_results
+    monkeypatch.setattr(
+        reproduce._SideBySide, "__init__", lambda self, *a: pipelines.append(self) or real_init(self, *a)
+    )
+    monkeypatch.setattr(
+        reproduce,
+        "write_results",
+        lambda out, rows, *a: (
+            written.append(({r["entry"] for r in rows}, len(pipelines[0].pending))) or real_write(out, rows, *a)
+        ),
+    )
     two = reproduce.reproduce("quick", tmp_path / "two", jobs=2, **options)
+    # each entry is written once its own trainings are done, while later ones still train
+    assert next(running for entries, running in written if "int+ext" in entries) > 0
+    assert written[-1][1] == 0 and len(written) > 1
     key = lambda r: (r["entry"], r["split"])  # noqa: E731
     assert sorted(map(key, one)) == sorted(map(key, two))
     by = {key(r): r["d_R"] for r in one}

@@ -425,10 +425,12 @@ def run_entries(
     per_shape: bool = False,
     context: dict | None = None,
     earlier=(),
+    ready=None,
 ):
     """Build each entry's method (:func:`build_method`) and evaluate it on its test sets into rows; returns the rows
     and the outcomes (key → :class:`Outcome`). ``saved(rows)``: called after each entry with the rows so far (so an
-    interruption loses one entry's work at most). ``per_shape``: every row holds its per-shape errors (a row over
+    interruption loses one entry's work at most); ``ready(entry)``: called before an entry is built (to wait for its
+    trainings in other processes). ``per_shape``: every row holds its per-shape errors (a row over
     seeds always does), so that a baseline can be compared with the networks (:func:`opnet.experiments.compare`).
 
     Each row gets a ``provenance`` (:func:`opnet.experiments.provenance.record`: its runs, their checkpoints' SHA-256,
@@ -444,6 +446,8 @@ def run_entries(
     context = context or {}
     rows = []
     for entry in entries:
+        if ready is not None:
+            ready(entry)
         outcome = build_method(entry, ws, done)
         done[entry.key] = outcome
         test_sets = list(entry.test_sets or test_sets_for(outcome.tested_on))
