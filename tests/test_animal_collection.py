@@ -183,5 +183,15 @@ def test_the_species_registered_in_processes_equal_one_registered_here(quick):
     bodies = animals.registered_species()  # the build's registrations (read from the data cache, or built here)
     k = bodies.species.index("fox")
     here = animals.registered_rig(bodies.rigs[0], animals.read_rig("fox"))
-    for field in ("vertices", "skin_joints", "skin_weights"):
-        assert np.array_equal(getattr(here, field), getattr(bodies.rigs[k], field)), field
+    fields = ("vertices", "skin_joints", "skin_weights")
+    apart = {f: float(np.abs(getattr(here, f) - getattr(bodies.rigs[k], f)).max()) for f in fields}
+    if any(apart.values()):  # seen once in many runs (µm); say where the two part, for the next time
+        again = animals.registered_rig(bodies.rigs[0], animals.read_rig("fox")).vertices
+        known = (("the build's", bodies.rigs[k].vertices), ("the first", here.vertices))
+        like = [name for name, x in known if np.array_equal(again, x)]
+        surfaces = [animals.body_template(animals.read_rig("fox")).vertices for _ in range(2)]
+        pytest.fail(
+            f"the fox registered here differs from the build's by {apart} (largest, m); registered again here it "
+            f"equals {' and '.join(like) or 'neither'}; its target surface remeshed twice is "
+            f"{'the same' if np.array_equal(*surfaces) else 'not the same'}"
+        )
