@@ -1,5 +1,6 @@
 """Atomic file writes, the clean-up of temporary files left by killed processes, one writer per folder (shared by
-data, training and the reproduction), and one builder at a time of a cache another library writes.
+data, training and the reproduction), one builder at a time of a cache another library writes, and file descriptor 2
+silenced for a compiled library's own prints.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ __all__ = [
     "remove_stale_tmp",
     "writer_lock",
     "build_lock",
+    "silenced_fd2",
     "LOCK_NAME",
 ]
 
@@ -110,6 +112,27 @@ def remove_stale_tmp(paths) -> None:
             tmp.unlink(missing_ok=True)
         except PermissionError:  # alive, someone else's
             pass
+
+
+@contextmanager
+def silenced_fd2():
+    """File descriptor 2 sent to ``os.devnull`` for the block, and put back after it (``sys.stderr`` flushed first).
+
+    A compiled library writes to fd 2 directly, past ``sys.stderr``, and a Jupyter kernel shows what reaches that
+    descriptor, from its own process or a worker's, as the cell's stderr. Only for messages opnet checks or replaces
+    itself (a Python warning or error of the block still reaches ``sys.stderr`` once it is put back).
+    """
+    import sys
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 @contextmanager

@@ -150,3 +150,16 @@ def test_the_body_models_are_built_under_the_lock_in_annys_cache(monkeypatch, tm
         ("head", True),
         ("hand.R", True),
     ]
+
+
+def test_silenced_fd2_drops_what_a_compiled_library_writes_to_fd_2_and_puts_it_back(capfd):
+    """What is written to file descriptor 2 in the block (as MeshFix's C code does) reaches no one; fd 2 works after
+    it, also when the block raises."""
+    os.write(2, b"before\n")
+    with opnet._files.silenced_fd2():
+        os.write(2, b"MeshFix could not fix everything\n")
+    with pytest.raises(ValueError), opnet._files.silenced_fd2():
+        os.write(2, b"then an error\n")
+        raise ValueError("raised in the block")
+    os.write(2, b"after\n")
+    assert capfd.readouterr().err == "before\nafter\n"

@@ -20,7 +20,6 @@ import contextlib
 import functools
 import gzip
 import hashlib
-import os
 import re
 import sys
 import types
@@ -30,7 +29,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .._extras import require
-from .._files import build_lock
+from .._files import build_lock, silenced_fd2
 from .subjects import PHENOTYPES
 
 #: The anny releases opnet is tested with (the decimated bodies use anny 0.6 internals).
@@ -127,15 +126,10 @@ def _import_anny_warp() -> None:
         return
     warp.config.log_level = max(warp.config.log_level, warp.LOG_WARNING)
     stdout = sys.stdout
-    sys.stderr.flush()
-    saved = os.dup(2)
     try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 2)
+        with silenced_fd2():
             import anny.utils.warp_mesh_utils  # noqa: F401
     finally:
-        os.dup2(saved, 2)
-        os.close(saved)
         sys.stdout = stdout
 
 

@@ -20,6 +20,7 @@ from scipy.spatial import cKDTree
 from threadpoolctl import threadpool_limits
 
 from ..._extras import require
+from ..._files import silenced_fd2
 from ...mesh import closest_points_on_faces, components, double_areas, edge_face_counts, face_edges
 from .rig import Rig, largest_weights
 
@@ -41,7 +42,9 @@ def body_template(rig: Rig, n_vertices: int = TEMPLATE_VERTICES, iterations: int
     faces = rig.faces[body]
     surface = rig.vertices, faces
     if not _closed(faces):  # the stag's body: a few edges on three or four faces, two open ones (MeshFix repairs it)
-        repaired = require("pymeshfix", "opnet.data.animals.body_template").clean_from_arrays(*surface)
+        meshfix = require("pymeshfix", "opnet.data.animals.body_template")
+        with silenced_fd2():  # MeshFix may print "could not fix everything" to fd 2: the check below decides
+            repaired = meshfix.clean_from_arrays(*surface)
         surface = np.asarray(repaired[0], dtype=np.float64), np.asarray(repaired[1], dtype=np.int64)
         if not _closed(surface[1]):
             raise ValueError(f"{rig.species}: the body (the largest piece of the mesh) is not closed, even repaired.")
