@@ -27,6 +27,7 @@ RESULT_PAGES = {
     "variants": "results",
     "schedules": "results",
     "schedules-quick": "results",
+    "schedules-quick-short": "results",
     "extrinsic": "results",
     "offset_channels": "inner_products",
     "generalisation": "results",

@@ -121,7 +121,7 @@ def test_the_notebooks_share_a_folder_whose_runs_carry_their_budget(tiny_collect
     monkeypatch.setitem(reproduce.BUDGETS, "quick", dataclasses.replace(base, analogies=7))
     assert reproduce.run_path(first, coll, "table1", opnet.KINDS) == run  # how many questions are asked trains nothing
     # a release that changes the training budget trains beside the old runs (which would refuse other settings)
-    monkeypatch.setitem(reproduce.BUDGETS, "quick", dataclasses.replace(base, epochs=80))
+    monkeypatch.setitem(reproduce.BUDGETS, "quick", dataclasses.replace(base, epochs=base.epochs + 1))
     assert reproduce.run_path(first, coll, "table1", opnet.KINDS) != run
     monkeypatch.setitem(reproduce.BUDGETS, "quick", dataclasses.replace(base, schedule="constant"))
     assert reproduce.run_path(first, coll, "table1", opnet.KINDS) != run
