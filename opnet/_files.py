@@ -8,6 +8,7 @@ from __future__ import annotations
 import errno
 import os
 import shutil
+import sys
 import threading
 import warnings
 from contextlib import contextmanager
@@ -119,11 +120,10 @@ def silenced_fd2():
     """File descriptor 2 sent to ``os.devnull`` for the block, and put back after it (``sys.stderr`` flushed first).
 
     A compiled library writes to fd 2 directly, past ``sys.stderr``, and a Jupyter kernel shows what reaches that
-    descriptor, from its own process or a worker's, as the cell's stderr. Only for messages opnet checks or replaces
-    itself (a Python warning or error of the block still reaches ``sys.stderr`` once it is put back).
+    descriptor, from its own process or a worker's, as the cell's stderr. Only around a call whose messages opnet
+    checks or replaces itself: in a plain process ``sys.stderr`` writes to fd 2 as well, so a warning printed in
+    the block is lost too (an exception still propagates). One thread at a time (the descriptor is the process's).
     """
-    import sys
-
     sys.stderr.flush()
     saved = os.dup(2)
     try:

@@ -182,11 +182,14 @@ def _reproduce(config: ReproduceConfig, out: Path) -> list[dict]:
     extra_channels = [ip.name for ip in new]
     where = dict(device=device, data_root=config.data_root, progress=progress, bar=bar, extra_channels=extra_channels)
     ws = Workspace(coll, profile, out / "runs", budget, **where)
-    order = sorted(plan.entries, key=lambda e: e.table == "ablation")  # the order _run_plan measures them in
-    trained = _SideBySide(config, ws, order) if config.jobs > 1 else None
+    first = [e for e in plan.entries if e.table != "ablation"]  # then the steps, then the ablation
+    ablation = [e for e in plan.entries if e.table == "ablation"]
+    # dispatched in the order measured: a digest two entries share trains in the first one's folder, where it is loaded
+    trained = _SideBySide(config, ws, first + ablation) if config.jobs > 1 else None
     figures = out / "figures" if config.figures else None
     try:
-        rows = _run_plan(config, plan, ws, save, figures, dict(context=row_stamp, earlier=before), trained)
+        kept = dict(context=row_stamp, earlier=before)
+        rows = _run_plan(config, plan.steps, (first, ablation), ws, save, figures, kept, trained)
     finally:
         if trained is not None:
             trained.close()
@@ -194,24 +197,24 @@ def _reproduce(config: ReproduceConfig, out: Path) -> list[dict]:
     return rows
 
 
-def _run_plan(config, plan, ws: Workspace, save, figures, kept: dict, trained) -> list[dict]:
-    """The plan's entries but the ablation's, its steps, then the ablation's entries, each written (``save``) once
-    measured; ``kept``: each row's provenance ``context`` and the ``earlier`` rows kept where measured on the same
-    inputs; ``trained``: the :class:`_SideBySide` trainings an entry waits for (``None``: it trains them here).
+def _run_plan(config, steps, entries, ws: Workspace, save, figures, kept: dict, trained) -> list[dict]:
+    """The plan's entries but the ablation's, its ``steps``, then the ablation's entries (``entries``: those two
+    lists), each written (``save``) once measured; ``kept``: each row's provenance ``context`` and the ``earlier``
+    rows kept where measured on the same inputs; ``trained``: the :class:`_SideBySide` trainings an entry waits for
+    (``None``: it trains them here).
     """
+    first, ablation = entries
     extra = dict(preset=config.preset)
     each = config.seeds > 1  # rows then hold their per-shape errors: the claims compare them
     ready = None if trained is None else trained.wait
     options = dict(extra=extra, per_shape=each, ready=ready, **kept)
-    first = [e for e in plan.entries if e.table != "ablation"]
     rows, done = run_entries(first, ws, saved=save, **options)
     if figures is not None:
         _figures(figures, ws, done, config.refine)
-    for step in plan.steps:
+    for step in steps:
         rows += _step(step.key, ws, done, figures, extra, refine=config.refine, **kept)
         ws.bar.update(1)
         save(rows)
-    ablation = [e for e in plan.entries if e.table == "ablation"]
     more, _ = run_entries(ablation, ws, done=done, saved=lambda r: save(rows + r), **options)
     rows = save(rows + more)
     if figures is not None:
@@ -244,7 +247,8 @@ class _SideBySide:
         from ._parallel import usable_cores
 
         joblib = require("joblib", "reproduce --jobs")
-        self.ws, self.pending = ws, {}  # digest -> (spec, collection): dispatched, not yet seen finished
+        self.pending = {}  # digest -> (spec, collection): dispatched, not yet seen finished
+        self.needs = {e.key: set(ws.trainings([e])) for e in entries}  # each entry's trainings' digests
         for digest, (key, draws, one) in ws.trainings(entries).items():
             coll = ws.data(key, draws)
             if not _finished(one.run_dir(ws.runs_root, coll), one.epochs):
@@ -264,7 +268,7 @@ class _SideBySide:
 
     def wait(self, entry) -> None:
         """Block until every training ``entry`` declares is finished (at once for a baseline or a refinement)."""
-        waiting = set(self.ws.trainings([entry])) & set(self.pending)
+        waiting = self.needs.get(entry.key, set()) & set(self.pending)
         while waiting:
             digest = next(self._finishing)  # the next to finish, of any entry
             waiting.discard(digest)
@@ -272,8 +276,12 @@ class _SideBySide:
             self.bar.update(1)
 
     def close(self) -> None:
-        """Stop the trainings not waited for (none once every entry has been waited for) and the bar."""
-        self._finishing.close()
+        """Stop the trainings not waited for (none once every entry has been waited for; after an error or an
+        interruption, the rest, without joblib's warning that it cancelled them) and the bar.
+        """
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            self._finishing.close()
         self.bar.close()
 
 

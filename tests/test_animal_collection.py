@@ -191,7 +191,8 @@ def test_the_species_registered_in_processes_equal_one_registered_here(quick):
         like = [name for name, x in known if np.array_equal(again, x)]
         surfaces = [animals.body_template(animals.read_rig("fox")).vertices for _ in range(2)]
         pytest.fail(
-            f"the fox registered here differs from the build's by {apart} (largest, m); registered again here it "
+            f"the fox registered here differs from the build's by {apart} (largest differences: vertices in m, "
+            f"skin joints as indices, weights); registered again here it "
             f"equals {' and '.join(like) or 'neither'}; its target surface remeshed twice is "
             f"{'the same' if np.array_equal(*surfaces) else 'not the same'}"
         )

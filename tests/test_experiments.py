@@ -416,7 +416,7 @@ def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules,
         return real(spec, collection, root, **kw)
 
     monkeypatch.setattr(runner, "train_run", load_only)
-    pipelines, written = [], []  # each write of results.json: its entries, and the trainings still running then
+    pipelines, written = [], []  # each write of results.json: its entries, and the trainings not yet waited for
     real_init, real_write = reproduce._SideBySide.__init__, reproduce.write_results
     monkeypatch.setattr(
         reproduce._SideBySide, "__init__", lambda self, *a: pipelines.append(self) or real_init(self, *a)

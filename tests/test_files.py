@@ -1,5 +1,5 @@
 """One builder at a time of a cache that another library writes in place (anny's model data): opnet._files.build_lock
-and the body model's use of it."""
+and the body model's use of it; file descriptor 2 silenced around a compiled library's call (silenced_fd2)."""
 
 import os
 import subprocess

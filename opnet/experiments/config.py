@@ -82,7 +82,8 @@ class ReproduceConfig:
         1,
         "train this many networks side by side, each in its own process with an equal share of the cores (2 on 2 "
         "cores: about 1.9 times the networks per hour); a network's round-off then differs from one trained alone. "
-        "Each entry's rows are written once its own trainings are finished, while later ones train",
+        "Each entry's rows are written once its own trainings are finished, while later ones train (this process "
+        "evaluates beside them, on the same cores: their train_seconds include that)",
         type=positive_int,
     )
     training_budget: str | None = option(

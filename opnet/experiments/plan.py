@@ -87,8 +87,8 @@ BUDGETS = {
     # chosen on `val` (benchmarks/schedules.py --preset quick, 3 seeds): at 60 epochs the constant rate never
     # converged and the one-cycle rate stopped higher; one-cycle at a peak of 3e-3 converged with the lowest mean.
     # Its epochs: 120 (2026-12-05), then 80 measured beside 120 on another machine (2026-12-06: 3.88 ± 0.29 against
-    # 3.47 ± 0.44 ×10⁻⁴, every seed converged against 2 of 3; the ranges overlap, so the rule takes the fewer epochs,
-    # 58 s a network against 97 s; results/schedules-quick-short.json). The PointNet AE, 3 seeds on `val`: 40 epochs
+    # 3.47 ± 0.44 ×10⁻⁴; 120 converged on 2 seeds of 3, so the rule left it out; the ranges overlap; 58 s a network
+    # against 97 s; benchmarks/results/schedules-quick-short.json). The PointNet AE, 3 seeds on `val`: 40 epochs
     # 11.8e-4 mean, all converged (20 epochs: 60.7e-4; its old constant 1e-3 for 20 epochs: 48.0e-4, none converged)
     "quick": Budget(
         epochs=80,
