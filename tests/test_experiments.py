@@ -449,6 +449,46 @@ def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules,
     assert sorted(map(key, again)) == sorted(map(key, two))
 
 
+@pytest.mark.slow
+def test_jobs_interrupted_after_hours_keeps_the_rows_it_measured_and_resumes_to_them(capsules, tmp_path, monkeypatch):
+    """--jobs 2 interrupted while the ablation's networks still train (Ctrl-C in the wait): results.json already
+    holds Table 1's rows, the trainings not waited for stop with it (no warning), and a second call measures the
+    rest, keeping those rows, to the rows of an uninterrupted call."""
+    import warnings
+
+    from opnet.experiments import runner
+
+    monkeypatch.setitem(plan.BUDGETS, "quick", dataclasses.replace(BUDGET, ablation_epochs=BUDGET.epochs))
+    options = dict(collection="capsules", figures=False, refine=False, device="cpu", progress=False, jobs=2)
+    whole = reproduce.reproduce("quick", tmp_path / "whole", **options)
+    real_wait = reproduce._SideBySide.wait
+
+    def interrupted(self, entry):
+        if entry.table == "ablation" and self.needs[entry.key] & set(self.pending):
+            raise KeyboardInterrupt  # as Ctrl-C in the wait for a training still running
+        return real_wait(self, entry)
+
+    monkeypatch.setattr(reproduce._SideBySide, "wait", interrupted)
+    out = tmp_path / "stopped"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # joblib's "tasks ... have been cancelled" would fail here
+        with pytest.raises(KeyboardInterrupt):
+            reproduce.reproduce("quick", out, **options)
+    kept = reproduce.read_results(out)[0]
+    assert {r["table"] for r in kept} == {"table1"} and "int+ext" in {r["entry"] for r in kept}
+    monkeypatch.setattr(reproduce._SideBySide, "wait", real_wait)
+    evaluated, real_evaluate = [], runner.evaluate
+    monkeypatch.setattr(
+        runner, "evaluate", lambda coll, methods, *a, **k: evaluated.append(methods[0].info.get("entry")) or
+        real_evaluate(coll, methods, *a, **k)
+    )  # fmt: skip
+    again = reproduce.reproduce("quick", out, **options)
+    key = lambda r: (r["entry"], r["split"])  # noqa: E731
+    assert {key(r): r["d_R"] for r in again} == {key(r): r["d_R"] for r in whole}
+    assert evaluated and not {r["entry"] for r in kept} & set(evaluated)  # the rows written are kept, not redone
+    assert all(e.startswith("ablation-") for e in evaluated), evaluated
+
+
 def test_a_second_reproduction_into_one_folder_stops_at_once(tmp_path):
     """One writer per --out: a call into a folder that another holds stops before it loads anything, naming the
     holder; the folder is free again once the holder lets go."""
