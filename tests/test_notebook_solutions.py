@@ -54,3 +54,39 @@ def test_outputs_come_from_one_run_of_the_whole_notebook_without_warnings(path):
     assert counts == list(range(1, len(cells) + 1)), f"{path.name}: not one run of every cell in order: {counts}"
     noisy = [i for i, c in enumerate(cells) if any(o.get("name") == "stderr" for o in c.get("outputs", []))]
     assert not noisy, f"{path.name}: code cells {noisy} wrote to stderr"
+
+
+#: Decimal numbers a notebook's prose may quote that no code or output of that notebook holds, each with its source.
+UNPRINTED = {
+    ("03_training", "2.4"): "a torch version",
+    ("07_your_own_inner_product", "1.7"): "the base's area in m², which notebook 01 prints",
+}
+DECIMAL = re.compile(r"(?<![\w.\-/])\d+\.\d+(?![\w.])")
+ARXIV = re.compile(r"\b\d{4}\.\d{5}\b")  # the paper's arXiv id
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_every_decimal_number_the_text_quotes_is_in_the_notebooks_code_or_outputs(path):
+    """A number with a decimal point in a Markdown cell is one the notebook's code or stored outputs (text and tables)
+    hold, or one of :data:`UNPRINTED`: a run whose numbers moved (another machine's round-off, another budget) and
+    was stored without its prose read again fails here. Figures' titles are images: prose reads them without numbers.
+    """
+    cells = _cells(path)
+    held = []
+    for c in cells:
+        if c["cell_type"] != "code":
+            continue
+        held.append("".join(c["source"]))
+        for o in c.get("outputs", []):
+            data = o.get("data", {})
+            for text in (o.get("text"), data.get("text/plain"), data.get("text/markdown"), data.get("text/html")):
+                held.append("".join(text) if isinstance(text, list) else text or "")
+    held = "\n".join(held)
+    quoted = {
+        (i, n)
+        for i, c in enumerate(cells)
+        if c["cell_type"] == "markdown"
+        for n in DECIMAL.findall(ARXIV.sub("", "".join(c["source"])))
+    }
+    missing = sorted((i, n) for i, n in quoted if n not in held and (path.stem, n) not in UNPRINTED)
+    assert not missing, f"{path.name}: Markdown cells quote numbers no output prints (cell, number): {missing}"
