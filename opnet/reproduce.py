@@ -247,9 +247,13 @@ class _SideBySide:
         from ._parallel import usable_cores
 
         joblib = require("joblib", "reproduce --jobs")
-        self.pending = {}  # digest -> (spec, collection): dispatched, not yet seen finished
-        self.needs = {e.key: set(ws.trainings([e])) for e in entries}  # each entry's trainings' digests
-        for digest, (key, draws, one) in ws.trainings(entries).items():
+        self.pending, self.needs, declared = {}, {}, {}  # needs: each entry's trainings' digests
+        for e in entries:  # as ws.trainings(entries), each entry's digests computed once
+            mine = ws.trainings([e])
+            self.needs[e.key] = set(mine)
+            for digest, training in mine.items():
+                declared.setdefault(digest, training)  # the first entry that declares it: its folder
+        for digest, (key, draws, one) in declared.items():  # pending: dispatched, not yet seen finished
             coll = ws.data(key, draws)
             if not _finished(one.run_dir(ws.runs_root, coll), one.epochs):
                 self.pending[digest] = (one, coll)
@@ -268,7 +272,7 @@ class _SideBySide:
 
     def wait(self, entry) -> None:
         """Block until every training ``entry`` declares is finished (at once for a baseline or a refinement)."""
-        waiting = self.needs.get(entry.key, set()) & set(self.pending)
+        waiting = self.needs[entry.key] & set(self.pending)
         while waiting:
             digest = next(self._finishing)  # the next to finish, of any entry
             waiting.discard(digest)
