@@ -205,6 +205,19 @@ def test_the_report_lays_out_a_set_outside_the_papers_grid():
     assert "All three operators give the best column" in md  # A+E+C found by name, not by position
 
 
+def test_the_ablation_table_prints_a_seeded_cells_interval_and_one_trainings_value_alone():
+    one = dict(table="ablation", split="test", depth=1, channels=["area"], d_R=3e-4, method="m")
+    seeded = dict(
+        one, channels=["area", "extrinsic", "conformal"], d_R=2e-4, d_R_low=1.5e-4, d_R_high=2.5e-4, seeds=[0, 1, 2]
+    )
+    md = report.ablation_markdown([one, seeded], dict(epochs=60, ablation_epochs=1))
+    row = next(line for line in md if line.startswith("| Conv. 8 |"))
+    assert "**2** ± 0.5" in row and "| 3 |" in row  # the best cell in bold, its half-width beside it
+    assert md[0].startswith("Each network trained 1 epoch (") and "half-width of the 95 % interval" in md[0]
+    plain = report.ablation_markdown([one], dict(epochs=60, ablation_epochs=60))
+    assert plain[0] == "Each network trained 60 epochs (Table 1's have 60)."
+
+
 # -- registered by a test: a baseline, a collection, a channel in the ablation -------------------------------------
 
 
@@ -291,6 +304,11 @@ def test_a_claim_is_confirmed_refuted_or_inconclusive_by_its_interval():
     judged = claims.judge(claim, means_only)  # one training, no per-shape errors: no interval, no verdict
     assert judged.verdict == "inconclusive" and judged.comparison is None and judged.better_mean < judged.worse_mean
     assert claims.judge(claim, rows(1e-5)[:1]).missing  # its rows are not all there: not judged
+    line = next(x for x in claims.claims_markdown(rows(1e-5)) if claim.statement in x)
+    assert "(3 seeds × 40 shapes)" in line and "**confirmed**" in line  # what the difference was paired on
+    hard = hard[:1]  # one training of each
+    line = next(x for x in claims.claims_markdown(rows(1e-5)) if claim.statement in x)
+    assert "(1 seed, 40 shapes)" in line
 
 
 def test_the_shipped_report_opens_with_the_claims_table():

@@ -339,6 +339,12 @@ def judge_all(rows, claims=CLAIMS) -> list[Judged]:
     return [j for j in (judge(c, rows) for c in claims) if not j.missing]
 
 
+def _paired_on(d) -> str:
+    """What a difference was paired on: ``"3 seeds × 50 shapes"``, ``"1 seed, 12 shapes"``."""
+    seeds = len(d.per_seed)
+    return f"{seeds} seeds × {d.n_shapes} shapes" if seeds > 1 else f"1 seed, {d.n_shapes} shapes"
+
+
 def claims_markdown(rows, claims=CLAIMS) -> list[str]:
     """The claims table (lines): each claim, its source, the two means, the paired difference with its interval and
     the verdict; empty when no claim's rows are there.
@@ -358,7 +364,7 @@ def claims_markdown(rows, claims=CLAIMS) -> list[str]:
     for j in judged:
         c, scale = j.claim, 1e4 if j.claim.metric == "d_R" else 1.0
         d = None if j.comparison is None else j.comparison.difference
-        diff = "–" if d is None else f"{d.text(scale)} ({d.n_shapes} shapes)"  # the means too: on the shapes paired
+        diff = "–" if d is None else f"{d.text(scale)} ({_paired_on(d)})"  # the means too: on the shapes paired
         if j.better_mean is None:
             means, holds = "several rows", ""
         else:

@@ -294,6 +294,11 @@ def _encoder(depth: int) -> str:
     return f"Conv. {'×'.join(str(8 * 2**k) for k in range(depth))}"
 
 
+def _epochs(n: int) -> str:
+    """``"1 epoch"``, ``"60 epochs"``."""
+    return f"{n} epoch{'' if n == 1 else 's'}"
+
+
 def results_markdown(rows: list[dict], context: dict) -> str:
     """``results.md``: :func:`~opnet.experiments.report.results_sections` under their headings (the context's lines
     first).
@@ -536,19 +541,24 @@ def ablation_markdown(rows: list[dict], budget: dict, paper: bool = True) -> lis
     ``epochs``), as a dict.
     """
     b = budget
-    table = ablation_table(rows)
+    table, half = ablation_table(rows), ablation_table(rows, "half_width")
     if not np.isfinite(table).any():
         return []
     cols = ablation_columns(rows)
     lines = [
-        f"Each network trained {b['ablation_epochs']} epochs (Table 1's have {b['epochs']}).",
+        f"Each network trained {_epochs(b['ablation_epochs'])} (Table 1's have {b['epochs']})"
+        + (f"; {_SEEDED} over seeds and shapes." if np.isfinite(half).any() else "."),
         "",
         "| encoder | " + " | ".join(cols) + " |",
         "|---" * (len(cols) + 1) + "|",
     ]
     for i, d in enumerate(PAPER_ABLATION_DEPTHS):
         best = np.nanargmin(table[i]) if np.isfinite(table[i]).any() else -1
-        cells = [f"**{number_text(v)}**" if j == best else number_text(v) for j, v in enumerate(table[i])]
+        cells = [
+            (f"**{number_text(v)}**" if j == best else number_text(v))
+            + (f" ± {number_text(h, digits=2)}" if np.isfinite(h) else "")
+            for j, (v, h) in enumerate(zip(table[i], half[i]))
+        ]
         lines.append(f"| {_encoder(d)} | " + " | ".join(cells) + " |")
     if paper:
         lines += [
@@ -567,7 +577,7 @@ def ablation_markdown(rows: list[dict], budget: dict, paper: bool = True) -> lis
     if nn is not None and np.nanmin(table) > 0.5e4 * nn:
         lines += [
             "",
-            f"**Caveat:** with {b['ablation_epochs']} epochs at this preset the ablation networks are barely "
+            f"**Caveat:** with {_epochs(b['ablation_epochs'])} at this preset the ablation networks are barely "
             f"trained (every cell is above half of NN's {number_text(nn, 1e4)}), so the differences between cells are "
             "mostly noise: this table shows the pipeline, not the paper's trends. Use a larger preset.",
         ]
