@@ -542,6 +542,33 @@ def test_figures_carry_the_rows_intervals_as_error_bars():
     assert np.isnan(report.ablation_table([dict(abl[0], d_R_low=None)], "half_width")).all()  # one training: none
 
 
+def test_an_ensemble_is_told_from_a_row_over_seeds():
+    """``seeds`` lists the trainings a row pools (each evaluated apart); ``ensemble`` counts the members of one
+    averaged network. The figure names only the latter an ensemble, and an older file's count in ``seeds`` is read as
+    ``ensemble``."""
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from opnet.experiments import figures
+
+    assert plan.declare(BUDGET)["bodies-shape-poses-quarter"].fields == dict(
+        bodies="shape", poses="quarter", ensemble=2
+    )
+    base = dict(table="table1", architecture="operatornet", variant="ours", channels=list(opnet.KINDS), depth=1,
+                bodies="shape", refined=None, n_shapes=3, d_R=1e-4)  # fmt: skip
+    seeded = dict(base, group="bodies-shape", run="a+a-s1", seeds=[0, 1])
+    ensemble = dict(base, group="bodies-shape-poses-quarter", poses="quarter", run="b+b-s1", ensemble=2)
+    rows = [dict(r, split=s) for r in (seeded, ensemble) for s in ("test", "test_subjects")]
+    ticks = [t.get_text() for t in figures.generalisation_figure(rows).axes[0].get_xticklabels()]
+    assert ["ensemble of 2" in t for t in ticks] == [False, True]
+    old = dict(ensemble, seeds=2)
+    del old["ensemble"]
+    (upgraded,) = report.upgrade_rows([old])
+    assert upgraded["ensemble"] == 2 and "seeds" not in upgraded
+    assert report.upgrade_rows([seeded]) == [seeded]
+
+
 def test_budgets_name_their_schedule_seeds_and_grid_and_the_papers_code_budget_is_named():
     default = plan.BUDGETS["default"]
     assert default.schedule == "onecycle" and default.ablation_epochs == default.epochs  # the ablation at Table 1's

@@ -243,17 +243,19 @@ def generalisation_figure(rows: list[dict]):
     triangulations: each network of the ``"discretisation"`` rows on the same test shapes given by their exact 1k
     operators and on the 2k and 5k meshes (true and computed maps), with the targets 1.5× and 3× the paper's
     network's 1k error drawn as lines. Rows are read by their structured fields (``table``, ``architecture``,
-    ``channels``, ``group``, ``run``, ``refined``, ``bodies``, ``poses``, ``seeds``, ``resolution``, ``maps``); the
+    ``channels``, ``group``, ``run``, ``refined``, ``bodies``, ``poses``, ``ensemble``, ``resolution``, ``maps``); the
     method names only label them.
     """
     from ..inner_products import KINDS
 
     plt = require("matplotlib.pyplot", "generalisation_figure")
     table1 = [r for r in rows if r.get("table") == "table1" and r["split"] in ("test", "test_subjects")]
-    runs = {  # the networks on the three operators, not the Comp ones
-        r["run"]
+    runs = {  # the networks on the three operators, not the Comp ones; a row over seeds by its run and each seed's
+        # (the refinement of such a network refines its first seed's run)
+        run
         for r in table1
         if matches(r, architecture="operatornet", channels=KINDS, refined=None) and r.get("group") not in MAPPED_GROUPS
+        for run in (r["run"], *(r.get("runs") or ()))
     }
     bodies = sorted((r for r in table1 if r.get("run") in runs), key=lambda r: bool(r.get("refined")))
     disc = [r for r in rows if r.get("table") == "discretisation"]
@@ -288,7 +290,7 @@ def _bodies_panel(ax, bodies: list) -> None:
         r = first[k]
         name = {"paper": "paper's network", "ours": "our variant"}.get(r.get("variant"), f"{r.get('variant')} variant")
         name += "".join(f"\n{key}={r[key]}" for key in ("bodies", "poses") if r.get(key))
-        name += f"\nensemble of {r['seeds']}" if r.get("seeds") else ""
+        name += f"\nensemble of {r['ensemble']}" if r.get("ensemble") else ""
         name += "\n+ refinement" if r.get("refined") else ""
         return name + f"\nn = {shapes.get((k, 'test'), 0)} / {shapes.get((k, 'test_subjects'), 0)}"
 
@@ -312,15 +314,19 @@ def _error_bars(value: dict, keys: list):
 
 
 def _triangulations_panel(ax, part: tuple) -> None:
-    """:func:`generalisation_figure`'s other-triangulations lines on ``ax``: ``part`` is the discretisation rows and
-    the reference rows of the targets' lines.
+    """:func:`generalisation_figure`'s other-triangulations lines on ``ax`` (with error bars where a row has an
+    interval): ``part`` is the discretisation rows and the reference rows of the targets' lines.
     """
     disc, reference = part
     encodings = list(dict.fromkeys((r["resolution"], r["maps"]) for r in disc))
-    for k in dict.fromkeys(row_key(r) for r in disc):
+    keys = list(dict.fromkeys(row_key(r) for r in disc))
+    for i, k in enumerate(keys):
         rows = [r for r in disc if row_key(r) == k]
-        value = {(r["resolution"], r["maps"]): 1e4 * r["d_R"] for r in rows}
-        ax.plot(range(len(encodings)), [value.get(e, np.nan) for e in encodings], "o-", lw=0.8, label=rows[0]["method"])
+        value = {(r["resolution"], r["maps"]): r for r in rows}
+        y = [1e4 * value[e]["d_R"] if e in value else np.nan for e in encodings]
+        yerr = _error_bars(value, encodings)  # a network over seeds: its 95 % interval at each encoding
+        x = np.arange(len(encodings)) + 0.05 * (i - (len(keys) - 1) / 2)  # side by side, so that the bars show
+        ax.errorbar(x, y, yerr=yerr, fmt="o-", lw=0.8, capsize=2, label=rows[0]["method"])
     for r in reference:
         for factor, style in ((1.5, ":"), (3.0, "--")):
             ax.axhline(factor * 1e4 * r["d_R"], color="grey", ls=style, lw=1, label=f"{factor:g}× its 1k error")

@@ -315,8 +315,9 @@ POINT_VARIANTS = {
     "pointnet2": ("PointNet++ AE", "pointnet2"),
 }
 #: The rows beside Table 1 for unseen bodies: this project's variant trained on the collection drawn with more
-#: bodies (and random poses) among its training shapes (``load_collection``'s ``bodies``, ``poses``); ``seeds``: an
-#: ensemble of that many seeds. key → (name, draws, seeds).
+#: bodies (and random poses) among its training shapes (``load_collection``'s ``bodies``, ``poses``); ``members``: an
+#: ensemble of that many seeds (its rows' field ``ensemble``), or 1: one network (trained with the plan's seeds, each
+#: apart, like Table 1's). key → (name, draws, members).
 MORE_BODIES = {
     "bodies-shape": ("OperatorNet ours, a body per shape (Int+Ext)", {"bodies": "shape"}, 1),
     "bodies-shape-poses-quarter": (
@@ -407,7 +408,7 @@ def declare(budget: Budget, *, ablation_sets: dict | None = None, seeds: int = 1
     for key, (name, draws, members) in MORE_BODIES.items():  # an ensemble of `members` seeds, or one network
         first = spec(bodies_group(**draws), budget, KINDS, variant="ours", name=name, **(rep if members == 1 else {}))
         runs = (first, *(replace(first, seed=s, name=f"{name}, seed {s}") for s in range(1, members)))
-        fields = dict(draws, **({"seeds": members} if members > 1 else {}))
+        fields = dict(draws, **({"ensemble": members} if members > 1 else {}))
         entries.append(Entry(key, name, runs, draws=draws, part="bodies", fields=fields))
     refined = ("int+ext", "ours", *MORE_BODIES)
     by_key = {e.key: e for e in entries}

@@ -118,9 +118,18 @@ def upgrade_rows(rows: list[dict]) -> list[dict]:
     A row without ``run`` and ``baseline`` (written before rows had them) gets the fields of the method it is named
     for (an exact lookup in the fixed list of names older reproductions wrote); rows that have them, and names
     that are not in the list, are returned as they are (the latter still tell themselves apart by :func:`row_key`).
+    A row whose ``seeds`` is a number (an ensemble of that many seeds, as files of before the field ``ensemble``
+    wrote) gets it as ``ensemble``: ``seeds`` lists the seeds of a row over separate trainings.
     """
     legacy = _legacy_fields()
-    return [{**legacy.get(r.get("method"), {}), **r} if "run" not in r and "baseline" not in r else r for r in rows]
+    rows = [{**legacy.get(r.get("method"), {}), **r} if "run" not in r and "baseline" not in r else r for r in rows]
+    return [_ensemble_field(r) if isinstance(r.get("seeds"), int) else r for r in rows]
+
+
+def _ensemble_field(row: dict) -> dict:
+    out = {k: v for k, v in row.items() if k != "seeds"}
+    out["ensemble"] = row["seeds"]
+    return out
 
 
 def row_key(row: dict) -> tuple:
