@@ -414,14 +414,19 @@ def plot_analogies(A, B, C, results: dict, faces, *, truth=None, clim=None, came
 def plot_history(histories: dict, *, ax=None):
     """Training curves: train loss (dashed) and validation ``d_R`` (solid), ×10⁻⁴, per epoch, log scale.
 
-    ``histories``: dict label → the history returned by :func:`opnet.train.fit`. Returns the figure.
+    ``histories``: dict label → the history returned by :func:`opnet.train.fit`, or a list of them (one network
+    trained with several seeds: each seed's curves in the label's colour, so that their spread shows; the label says
+    how many). Returns the figure.
     """
     fig, ax = _figure_and_axes(ax, (7, 3.6))
     for i, (label, hist) in enumerate(histories.items()):
-        epochs = [h["epoch"] for h in hist]
+        seeds = hist if hist and isinstance(hist[0], list) else [hist]  # a history is a list of dicts
         color = f"C{i}"
-        ax.plot(epochs, [1e4 * h["train_loss"] for h in hist], "--", color=color, alpha=0.7)
-        ax.plot(epochs, [1e4 * h["val_d_R"] for h in hist], "-", color=color, label=label)
+        for s, one in enumerate(seeds):
+            epochs = [h["epoch"] for h in one]
+            ax.plot(epochs, [1e4 * h["train_loss"] for h in one], "--", color=color, alpha=0.7, lw=0.8)
+            name = (f"{label} ({len(seeds)} seeds)" if len(seeds) > 1 else label) if s == 0 else None
+            ax.plot(epochs, [1e4 * h["val_d_R"] for h in one], "-", color=color, label=name, lw=1.2)
     ax.set_yscale("log")
     ax.set_xlabel("epoch")
     ax.set_ylabel("d_R (×10⁻⁴)")

@@ -400,9 +400,9 @@ def _step(key: str, ws: Workspace, done: dict, figures, extra: dict, *, refine: 
 
 def _figures(figures: Path, ws: Workspace, done: dict, refine: bool) -> None:
     """The figures drawn from the networks: training curves, reconstructions, refinement."""
-    single = [o for o in done.values() if len(o.runs) == 1 or o.entry.replicated]  # a replicated one: its first seed
+    single = [o for o in done.values() if len(o.runs) == 1 or o.entry.replicated]  # a replicated one: every seed
     trained = [o for o in single if not o.entry.draws and o.entry.trained_on in ("base", "comp")]
-    histories = {o.entry.name: o.runs[0].history for o in trained}
+    histories = {o.entry.name: [r.history for r in o.runs] for o in trained}
     paper, nn = done["int+ext"].method, done["nn"].method
     table1_figures(figures.parent, ws.coll, paper, nn, histories)
     if refine:

@@ -137,3 +137,17 @@ def test_error_renders_share_one_range_in_mm_with_a_colour_bar():
         assert painted and all(np.allclose(rng, (0.0, 1000 * top)) for rng in painted)
     finally:
         plotter.close()
+
+
+def test_training_curves_draw_every_seed_of_a_network_in_one_colour():
+    def history(scale):
+        return [dict(epoch=e, train_loss=scale / e, val_d_R=2 * scale / e) for e in range(1, 4)]
+
+    fig = plotting.plot_history({"net": [history(1e-4), history(2e-4), history(3e-4)], "one": history(5e-4)})
+    ax = fig.axes[0]
+    lines = ax.get_lines()
+    assert len(lines) == 2 * 3 + 2  # train and val of each seed, then of the single training
+    assert {line.get_color() for line in lines[:6]} == {"C0"} and {line.get_color() for line in lines[6:]} == {"C1"}
+    val = [line for line in lines if line.get_linestyle() == "-"]
+    assert [line.get_ydata()[0] for line in val] == pytest.approx([2, 4, 6, 10])  # ×10⁻⁴, each seed's own curve
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["net (3 seeds)", "one"]
