@@ -607,3 +607,15 @@ def test_budgets_name_their_schedule_seeds_and_grid_and_the_papers_code_budget_i
     pytest.importorskip("torch")  # the command line's parser holds `train`
     args = _parser().parse_args(["reproduce", "--budget", "paper-code", "--ablation-grid", "cross"])
     assert (args.training_budget, args.ablation_grid) == ("paper-code", "cross")
+
+
+def test_the_headline_prints_a_seeded_rows_interval_and_says_so():
+    base = dict(table="table1", architecture="operatornet", variant="paper", group="table1", run="r", n_shapes=4)
+    base |= dict(method="OperatorNet", channels=list(opnet.KINDS), depth=1, d_V=0.01, d_E=0.02)
+    one = [dict(base, split=s, d_R=1e-4) for s in ("test", "test_subjects")]
+    lines = report.headline_markdown(one)
+    assert len(lines) == 3 and lines[2].startswith("| OperatorNet | 1 | 0.01 | 0.02 | 1 |")  # one training: its means
+    seeded = [dict(r, d_R_low=0.5e-4, d_R_high=1.5e-4, seeds=[0, 1, 2]) for r in one]
+    lines = report.headline_markdown(seeded)
+    assert lines[2].startswith("| OperatorNet | 1 ± 0.5 | 0.01 | 0.02 | 1 ± 0.5 |")
+    assert lines[-1].startswith("d_R ×10⁻⁴ m²; a network trained with several seeds: mean ± half-width")

@@ -535,11 +535,13 @@ def headline_markdown(rows: list[dict]) -> list[str]:
             continue
         paper = paper_table1(test)
         lines.append(
-            f"| {test['method']} | {number_text(test['d_R'], 1e4)} | {number_text(test['d_V'])} | "
+            f"| {test['method']} | {value_text(test, 'd_R', 1e4)} | {number_text(test['d_V'])} | "
             f"{number_text(test['d_E'])} | "
-            f"{number_text(None if unseen is None else unseen['d_R'], 1e4)} | "
+            f"{'–' if unseen is None else value_text(unseen, 'd_R', 1e4)} | "
             f"{'–' if paper is None else ' / '.join(f'{p:g}' for p in paper)} |"
         )
+    if any(r.get("d_R_low") is not None for r in t1):
+        lines += ["", f"d_R ×10⁻⁴ m²; {_SEEDED} over seeds and shapes, the other columns the means."]
     return lines
 
 
