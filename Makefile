@@ -10,6 +10,7 @@
 #               COLLECTION=animals: the animals, into build/reproduce-animals-$(PRESET)
 #   make ship-results  copy build/reproduce-default's results.json and figures into the package
 #               (opnet/experiments/results/default/: what the notebooks and the docs show as the shipped `default`;
+#               the README's headline Table 1 is rendered again from it;
 #               COLLECTION=animals: build/reproduce-animals-default into results/animals-default)
 #   make benchmarks  measure again the benchmarks the docs show, into benchmarks/results/*.json (an idle machine;
 #               about 20 min on 2 cores, most of it the PointNet one); the ones that train or read networks (matching,
@@ -89,11 +90,12 @@ reproduce: $(BYTECODE)
 	$(PY) -m opnet reproduce --preset $(PRESET) --collection $(COLLECTION) --out build/reproduce-$(PREFIX)$(PRESET) $(ARGS)
 
 SHIPPED := opnet/experiments/results/$(PREFIX)default
-ship-results:
+ship-results: $(BYTECODE)
 	test -f build/reproduce-$(PREFIX)default/results.json || { echo "no build/reproduce-$(PREFIX)default/results.json: make reproduce PRESET=default COLLECTION=$(COLLECTION) first" >&2; exit 1; }
 	rm -rf $(SHIPPED) && mkdir -p $(SHIPPED)/figures
 	cp build/reproduce-$(PREFIX)default/results.json $(SHIPPED)/
 	cp build/reproduce-$(PREFIX)default/figures/*.png $(SHIPPED)/figures/
+	test -n "$(PREFIX)" || $(PY) docs/_scripts/generated.py --readme README.md  # the README's headline Table 1
 
 # One script after the other, never side by side: each times the whole machine.
 benchmarks: $(BYTECODE)

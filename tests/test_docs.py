@@ -96,3 +96,27 @@ def test_the_readme_is_short_and_its_table1_is_the_shipped_one():
     block = readme[readme.index("<!-- headline-table1 -->") : readme.index("<!-- headline-table1-end -->")]
     expected = headline_markdown(shipped_results("default")[0])
     assert expected and block.strip().splitlines()[1:] == expected
+
+
+def test_ship_results_renders_the_readmes_headline_from_the_rows(tmp_path):
+    """``make ship-results`` rewrites the block between the README's markers from the rows it ships
+    (docs/_scripts/generated.py --readme), keeping the rest of the file."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "docs" / "_scripts"))
+    from generated import HEADLINE_MARKERS, write_readme_headline
+
+    from opnet.experiments.report import headline_markdown
+    from opnet.experiments.shipped import shipped_results
+
+    start, end = HEADLINE_MARKERS
+    readme = tmp_path / "README.md"
+    readme.write_text(f"# title\n\nbefore\n{start}\n| stale | table |\n{end}\n\nafter\n")
+    rows = shipped_results("default")[0]
+    write_readme_headline(readme, rows)
+    text = readme.read_text()
+    assert text.startswith("# title\n\nbefore\n") and text.endswith(f"{end}\n\nafter\n") and "stale" not in text
+    assert text[text.index(start) : text.index(end)].strip().splitlines()[1:] == headline_markdown(rows)
+    readme.write_text("no markers\n")
+    with pytest.raises(ValueError, match="headline-table1"):
+        write_readme_headline(readme, rows)

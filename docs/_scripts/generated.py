@@ -9,7 +9,9 @@
   figures to ``docs/_generated/results/figures/``; the animals' (``--collection animals``) go to
   ``docs/_generated/results-animals/``.
 
-``docs/conf.py`` calls both at every build, so a page cannot drift from its file.
+``docs/conf.py`` calls both at every build, so a page cannot drift from its file. The README's headline Table 1 is
+rendered from the same rows by :func:`write_readme_headline` (``make ship-results`` calls it: ``python
+docs/_scripts/generated.py --readme README.md``), and a test keeps the two equal.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import sys
 from pathlib import Path
 
 import opnet
-from opnet.experiments.report import SECTION_TITLES, results_sections
+from opnet.experiments.report import SECTION_TITLES, headline_markdown, results_sections
 from opnet.experiments.shipped import shipped_figure, shipped_figures, shipped_results
 
 #: The benchmarks of the checkout whose opnet the docs document (also when a copy of docs/ is built).
@@ -88,3 +90,33 @@ def write_results_fragments(out: Path, preset: str = "default", collection: str 
         figure = shipped_figure(name, preset, collection).read_bytes()
         written.append(_write_if_changed(out / "figures" / f"{name}.png", figure))
     return written
+
+
+#: The README's markers around its headline Table 1.
+HEADLINE_MARKERS = ("<!-- headline-table1 -->", "<!-- headline-table1-end -->")
+
+
+def write_readme_headline(readme: Path, rows: list[dict] | None = None) -> Path:
+    """Replace the headline Table 1 between the README's :data:`HEADLINE_MARKERS` by
+    :func:`~opnet.experiments.report.headline_markdown` of ``rows`` (default: the shipped `default` reproduction's);
+    the rest of the file is kept. Returns the path.
+    """
+    readme = Path(readme)
+    text = readme.read_text()
+    start, end = HEADLINE_MARKERS
+    if text.count(start) != 1 or text.count(end) != 1 or text.index(start) > text.index(end):
+        raise ValueError(f"{readme} must hold {start} and then {end} once each, around its headline table.")
+    lines = headline_markdown(shipped_results("default")[0] if rows is None else rows)
+    if not lines:
+        raise ValueError("the rows hold no Table 1 row to put in the README's headline.")
+    before, rest = text.split(start)
+    after = rest.split(end)[1]
+    return _write_if_changed(readme, f"{before}{start}\n" + "\n".join(lines) + f"\n{end}{after}")
+
+
+if __name__ == "__main__":
+    import argparse
+
+    parser = argparse.ArgumentParser(description="Render the shipped results into the README's headline table.")
+    parser.add_argument("--readme", type=Path, required=True, help="the README to update in place")
+    print(write_readme_headline(parser.parse_args().readme))
