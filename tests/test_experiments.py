@@ -619,3 +619,22 @@ def test_the_headline_prints_a_seeded_rows_interval_and_says_so():
     lines = report.headline_markdown(seeded)
     assert lines[2].startswith("| OperatorNet | 1 ± 0.5 | 0.01 | 0.02 | 1 ± 0.5 |")
     assert lines[-1].startswith("d_R ×10⁻⁴ m²; a network trained with several seeds: mean ± half-width")
+
+
+def test_results_json_keeps_per_shape_errors_to_seven_digits_on_one_line_each(tmp_path):
+    from opnet.experiments import shipped
+
+    rows, context = shipped.shipped_results("default")
+    rng = np.random.default_rng(0)
+    errors = rng.gamma(2.0, 1e-4, (3, 200))
+    errors[0, 5] = np.nan  # d_V of an open mesh
+    row = dict(rows[0], d_R_shapes=errors.tolist(), shapes=list(range(200)), seeds=[0, 1, 2], note="kept as it is")
+    report.write_results(tmp_path, [row], context, 1.0)
+    text = (tmp_path / "results.json").read_text()
+    assert len(text.splitlines()) < 300  # 600 errors and 200 indices, but a line per list
+    (back,), context = report.read_results(tmp_path)
+    assert back["d_R"] == row["d_R"] and back["shapes"] == row["shapes"] and back["note"] == "kept as it is"
+    got = np.array(back["d_R_shapes"], dtype=float)
+    assert np.isnan(got[0, 5]) and np.allclose(got, errors, rtol=1e-6, atol=0, equal_nan=True)
+    assert not np.array_equal(got, errors, equal_nan=True)  # rounded: seven significant digits
+    assert context["wall_seconds"] == 1.0

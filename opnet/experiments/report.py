@@ -16,6 +16,7 @@ Rows are found by their structured fields, never by their display name (``method
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -205,15 +206,52 @@ def value_text(row: dict, metric: str, scale: float = 1.0) -> str:
 RESULTS_FORMAT, RESULTS_VERSION = "opnet.results", 2
 
 
+#: Significant digits kept of the per-shape errors (``<metric>_shapes``) in ``results.json``: far below any
+#: difference an interval can tell, and a ``default`` reproduction's file about half the size.
+SHAPE_DIGITS = 7
+
+
 def write_results(out: Path, rows: list[dict], context: dict, seconds: float) -> None:
     """Write ``out/results.json`` (the rows and ``context`` with ``wall_seconds`` = ``seconds``: all that
-    :func:`results_markdown` needs) and ``out/results.md`` (that Markdown), each atomically.
+    :func:`results_markdown` needs) and ``out/results.md`` (that Markdown, of the rows as written), each atomically.
+
+    The per-shape errors (``<metric>_shapes``, per seed and shape: what the intervals and the claims' paired
+    comparisons read) keep :data:`SHAPE_DIGITS` significant digits; they and the shapes' indices are written a list
+    to a line; the rest as it is.
     """
     context = dict(context, wall_seconds=round(seconds, 1))
+    rows = [{k: _rounded(v) if k.endswith("_shapes") else v for k, v in r.items()} for r in rows]
     data = dict(format=RESULTS_FORMAT, version=RESULTS_VERSION, context=context, rows=rows)
-    atomic_write(out / "results.json", lambda f: f.write(json.dumps(data, indent=1).encode()))
+    atomic_write(out / "results.json", lambda f: f.write(_results_json(data).encode()))
     md = results_markdown(rows, context)
     atomic_write(out / "results.md", lambda f: f.write(md.encode()))
+
+
+def _rounded(value):
+    """A (nested) list of numbers with :data:`SHAPE_DIGITS` significant digits; anything else as it is."""
+    if isinstance(value, list):
+        return [_rounded(v) for v in value]
+    if isinstance(value, float) and math.isfinite(value):
+        return float(f"{value:.{SHAPE_DIGITS}g}")
+    return value
+
+
+def _results_json(data: dict) -> str:
+    """``data`` as JSON, indented, with each row's per-shape lists (``shapes``, ``<metric>_shapes``) on one line (a
+    placeholder for each, then its compact text: thousands of numbers would otherwise take a line each).
+    """
+    compact, rows = {}, []
+    for i, row in enumerate(data["rows"]):
+        row = dict(row)
+        for key in [k for k, v in row.items() if (k == "shapes" or k.endswith("_shapes")) and isinstance(v, list)]:
+            mark = f"\x00{i}:{key}\x00"
+            compact[json.dumps(mark)] = json.dumps(row[key], separators=(",", ":"))
+            row[key] = mark
+        rows.append(row)
+    text = json.dumps(dict(data, rows=rows), indent=1)
+    for mark, value in compact.items():
+        text = text.replace(mark, value, 1)
+    return text
 
 
 def row_identity(row: dict) -> tuple:
