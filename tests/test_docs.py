@@ -120,3 +120,39 @@ def test_ship_results_renders_the_readmes_headline_from_the_rows(tmp_path):
     readme.write_text("no markers\n")
     with pytest.raises(ValueError, match="headline-table1"):
         write_readme_headline(readme, rows)
+
+
+#: Decimal numbers docs/results.md may quote that none of its sources prints, each with where it comes from.
+RESULTS_UNPRINTED = {
+    "1.067": "a seed's tail ratio in benchmarks/results/schedules-quick-short.json (its report: converged or not)",
+    "3.909": "3.466 + 0.443: the schedule rule's tie-break, computed in the text",
+}
+
+
+def test_every_decimal_number_the_results_page_quotes_is_in_what_it_renders():
+    """docs/results.md's prose quotes only numbers that the fragments it includes (the shipped reproductions' sections
+    and the benchmarks' reports, rendered at every build) or notebook 05's stored outputs (its `quick` heads and hands)
+    print, or one of RESULTS_UNPRINTED: prose left stale when a shipped result is measured again fails here."""
+    import json
+    import sys
+
+    sys.path.insert(0, str(ROOT / "docs" / "_scripts"))
+    from generated import benchmark_report, results_fragments
+
+    rendered = {  # what docs/conf.py writes under docs/_generated at each build
+        "results": results_fragments("default"),
+        "results-animals": results_fragments("default", "animals"),
+    }
+    decimal = re.compile(r"(?<![\w.\-/])\d+\.\d+(?![\w.])")
+    page = (ROOT / "docs" / "results.md").read_text()
+    held = []
+    for folder, name in re.findall(r"```\{include\} _generated/([\w-]+)/([\w-]+)\.md\n```", page):
+        held.append(benchmark_report(name) if folder == "benchmarks" else rendered[folder][name])
+    assert len(held) == page.count("{include}")  # every include read
+    for cell in json.loads((ROOT / "notebooks" / "05_interpolation_analogy.ipynb").read_text())["cells"]:
+        for out in cell.get("outputs", []):
+            held += ["".join(out.get("text", [])), "".join(out.get("data", {}).get("text/markdown", []))]
+    held = "\n".join(held)
+    prose = re.sub(r"```.*?```", "", page, flags=re.S)  # not the includes, nor code
+    missing = sorted({n for n in decimal.findall(prose) if n not in held and n not in RESULTS_UNPRINTED})
+    assert not missing, f"docs/results.md quotes numbers nothing it renders prints: {missing}"
