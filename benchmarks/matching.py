@@ -7,8 +7,9 @@ and the computed map without the orientation term. For each it measures the seco
 error (units of the base's ``sqrt(area)``, and centimetres), how many maps are mirrored (closer to the
 mirror image of the truth than to the truth), the quality figures, and the error of each operator
 channel against the 1k ground truth relative to the operator's own signal ``‖D − I‖``. With ``--runs``,
-each finished Table 1 network there (``table1-*-d1*``; runs still training are skipped) decodes every encoding,
-and its d_R (×10⁻⁴) against the 1k shapes is reported. ``report`` prints the table and the findings computed
+each finished Table 1 network there (the first seed of the paper's three and our variant, found by the reproduction's
+plan at ``--preset``: ``RunSpec.run_dir``; runs missing or still training are skipped) decodes every encoding, and
+its d_R (×10⁻⁴) against the 1k shapes is reported. ``report`` prints the table and the findings computed
 from it; ``--json PATH`` writes everything (``benchmarks/results/matching.json`` is the shipped one, rendered in
 docs/results.md, section "Other triangulations").
 
@@ -32,28 +33,32 @@ import opnet
 
 #: the maps of each resolution: (label, compute_map options; None: the true map)
 MAPS = (("true", None), ("computed", {}), ("computed, no orientation term", {"orientation": False}))
-#: the short names of Table 1's networks (run directory → column)
-NET_NAMES = {
-    "table1-A+E+C-d1": "Int+Ext",
-    "table1-A+C-d1": "Int",
-    "table1-Ext-d1": "Ext",
-    "table1-A+E+C-d1-ours": "ours",
-}
+#: the short names of Table 1's networks (the reproduction's plan entry → column)
+NET_NAMES = {"int+ext": "Int+Ext", "int": "Int", "ext": "Ext", "ours": "ours"}
 
 
-def finished_runs(runs: Path) -> tuple[list[Path], list[str]]:
-    """The run directories of ``runs`` whose training is complete (every epoch of their config in their history),
-    and the names of those skipped (still training, or unreadable)."""
-    done, skipped = [], []
-    for run in sorted(runs.glob("table1-*-d1*")):
+def finished_runs(runs: Path, ds, preset: str) -> tuple[dict[str, Path], list[str]]:
+    """``{column: run directory}`` of Table 1's networks in ``runs`` whose training is complete (every epoch of their
+    config in their history), each its first seed's run as the reproduction at ``preset`` declares it on ``ds``
+    (:meth:`opnet.experiments.RunSpec.run_dir`: its name carries its settings' digest), and the folders skipped
+    (not there, still training, or unreadable)."""
+    from opnet.reproduce import BUDGETS, declare
+
+    plan = declare(BUDGETS[preset])  # seed 0 of each network: a seeded reproduction's first run is the same
+    done, skipped = {}, []
+    for key, column in NET_NAMES.items():
+        run = plan[key].spec.run_dir(runs, ds)
         try:
             epochs = json.loads((run / "config.json").read_text())["train"]["epochs"]
             history = json.loads((run / "history.json").read_text())
         except (OSError, ValueError, KeyError):
             skipped.append(run.name)
             continue
-        (done if len(history) >= epochs and (run / "best.pt").is_file() else skipped).append(run.name)
-    return [runs / name for name in done], skipped
+        if len(history) >= epochs and (run / "best.pt").is_file():
+            done[column] = run
+        else:
+            skipped.append(run.name)
+    return done, skipped
 
 
 def parse_args(argv=None):
@@ -89,10 +94,8 @@ def measure(args) -> dict:
     truth = ds.vertices[idx]
     nets, skipped = {}, []
     if args.runs is not None:
-        runs, skipped = finished_runs(Path(args.runs).expanduser())
-        order = {name: i for i, name in enumerate(NET_NAMES)}
-        runs = sorted(runs, key=lambda run: (order.get(run.name, len(order)), run.name))
-        nets = {NET_NAMES.get(run.name, run.name): opnet.train.load_model(run, ds) for run in runs}
+        runs, skipped = finished_runs(Path(args.runs).expanduser(), ds, args.preset)
+        nets = {column: opnet.train.load_model(run, ds) for column, run in runs.items()}
     spectrum = opnet.eigenbasis(basis.mesh, 100)
     scale = float(np.sqrt(basis.mesh.area))
     rows = [
@@ -231,7 +234,7 @@ def report(result: dict) -> str:
         "Map error: the mean distance on the base between the map's image and the true map's, in cm; mirrored: maps "
         "closer to the mirror image of the truth than to the truth; operator error ‖D − D₁ₖ‖ / ‖D₁ₖ − I‖ per channel; "
         "d_R ×10⁻⁴ against the 1k body, decoded by each Table 1 network"
-        + (f" (runs still training, skipped: {', '.join(c['skipped_runs'])})" if c["skipped_runs"] else "")
+        + (f" (runs missing or still training, skipped: {', '.join(c['skipped_runs'])})" if c["skipped_runs"] else "")
         + ".",
         "",
         "| mesh | map | s/map | map error (cm) | mirrored | area | conf. | ext. | "

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -420,7 +421,7 @@ def plot_history(histories: dict, *, ax=None):
     """
     fig, ax = _figure_and_axes(ax, (7, 3.6))
     for i, (label, hist) in enumerate(histories.items()):
-        seeds = hist if hist and isinstance(hist[0], list) else [hist]  # a history is a list of dicts
+        seeds = [hist] if not hist or isinstance(hist[0], Mapping) else list(hist)  # a history: a list of dicts
         color = f"C{i}"
         for s, one in enumerate(seeds):
             epochs = [h["epoch"] for h in one]

@@ -112,3 +112,26 @@ def test_convergence_measures_the_tail_against_the_best():
         convergence(flat, tail=0)
     with pytest.raises(ValueError, match="history is empty"):
         convergence([])
+
+
+def test_the_matching_benchmark_finds_each_networks_first_seed_by_the_plan(tmp_path, tiny_collection):
+    """benchmarks/matching.py --runs decodes with Table 1's networks: each found as the reproduction declares its
+    first seed's run (its folder name carries a digest), a finished one loaded, a missing or unfinished one skipped, a
+    later seed's folder never taken for it."""
+    pytest.importorskip("torch")  # the run's digest fingerprints the collection with opnet.train
+    from opnet.reproduce import BUDGETS, declare
+
+    matching = script("matching")
+    ds = tiny_collection()
+    plan = declare(BUDGETS["quick"], seeds=2)
+    first, second = plan["int+ext"].spec.replicates()
+    ext = plan["ext"].spec.replicates()[0]
+    for spec, history in ((first, 80), (second, 80), (ext, 3)):  # ext: still training
+        run = spec.run_dir(tmp_path, ds)
+        run.mkdir()
+        (run / "config.json").write_text(json.dumps({"train": {"epochs": 80}}))
+        (run / "history.json").write_text(json.dumps([{}] * history))
+        (run / "best.pt").write_bytes(b"")
+    done, skipped = matching.finished_runs(tmp_path, ds, "quick")
+    assert done == {"Int+Ext": first.run_dir(tmp_path, ds)} and done["Int+Ext"].name.startswith("table1-A+E+C-d1-")
+    assert len(skipped) == 3 and ext.run_dir(tmp_path, ds).name in skipped  # Int, ours: not there

@@ -14,7 +14,15 @@ import numpy as np
 from .._extras import require
 from ..evaluate import Method, evenly_spaced, operatornet_method, test_set_indices
 from .paper import PAPER_ABLATION_DEPTHS
-from .report import MAPPED_GROUPS, PAPER_TABLE1_ROWS, ablation_columns, ablation_table, matches, row_key
+from .report import (
+    MAPPED_GROUPS,
+    PAPER_TABLE1_ROWS,
+    ablation_columns,
+    ablation_table,
+    matches,
+    row_key,
+    upgrade_rows,
+)
 
 __all__ = [
     "table1_figures",
@@ -29,7 +37,8 @@ __all__ = [
 
 
 def table1_figures(out: Path, coll, ours, nn, histories: dict) -> None:
-    """``training_curves.png`` (``histories``: name → history), and ``reconstructions_<split>.png``: three shapes of
+    """``training_curves.png`` (``histories``: name → a history, or a list of them, one per seed:
+    :func:`opnet.plotting.plot_history`), and ``reconstructions_<split>.png``: three shapes of
     ``test`` and ``test_subjects`` reconstructed by ``ours`` and ``nn`` (:class:`opnet.evaluate.Method`), coloured by
     error. Written under ``out/figures``.
     """
@@ -243,12 +252,15 @@ def generalisation_figure(rows: list[dict]):
     triangulations: each network of the ``"discretisation"`` rows on the same test shapes given by their exact 1k
     operators and on the 2k and 5k meshes (true and computed maps), with the targets 1.5× and 3× the paper's
     network's 1k error drawn as lines. Rows are read by their structured fields (``table``, ``architecture``,
-    ``channels``, ``group``, ``run``, ``refined``, ``bodies``, ``poses``, ``ensemble``, ``resolution``, ``maps``); the
-    method names only label them.
+    ``channels``, ``group``, ``run`` and a row over seeds' ``runs``, ``refined``, ``bodies``, ``poses``, ``ensemble``,
+    ``resolution``, ``maps``; ``d_R_low`` and ``d_R_high``, the 95 % interval drawn as an error bar where a row has
+    one; an older file's rows are upgraded first, :func:`~opnet.experiments.report.upgrade_rows`); the method names
+    only label them.
     """
     from ..inner_products import KINDS
 
     plt = require("matplotlib.pyplot", "generalisation_figure")
+    rows = upgrade_rows(rows)
     table1 = [r for r in rows if r.get("table") == "table1" and r["split"] in ("test", "test_subjects")]
     runs = {  # the networks on the three operators, not the Comp ones; a row over seeds by its run and each seed's
         # (the refinement of such a network refines its first seed's run)
@@ -304,10 +316,13 @@ def _bodies_panel(ax, bodies: list) -> None:
 def _error_bars(value: dict, keys: list):
     """The ``yerr`` of bars of ``value[k]["d_R"]`` (×10⁻⁴): each row's 95 % interval below and above its mean, where
     rows have one (over seeds and shapes, :func:`opnet.experiments.stats.summarize_seeds`); ``None`` when none has.
+    An interval that reaches 0 or below (a few seeds, a wide spread) is drawn down to a hundredth of the mean: the
+    log axis has no 0.
     """
     lows = [value[k].get("d_R_low") if k in value else None for k in keys]
     if all(v is None for v in lows):
         return None
+    lows = [None if lo is None else max(lo, 0.01 * value[k]["d_R"]) for k, lo in zip(keys, lows)]
     below = [1e4 * (value[k]["d_R"] - lo) if lo is not None else 0.0 for k, lo in zip(keys, lows)]
     above = [1e4 * (value[k]["d_R_high"] - value[k]["d_R"]) if lo is not None else 0.0 for k, lo in zip(keys, lows)]
     return np.array([below, above])

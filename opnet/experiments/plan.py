@@ -167,7 +167,7 @@ class Entry:
     part : the part of :data:`PARTS` that selects it.
     paper_row : the row of the paper's Table 1 it stands beside (``opnet.experiments.paper.PAPER_TABLE1``).
     other_meshes : its network also decodes test shapes given on other triangulations (the discretisation rows).
-    fields : more structured fields of its rows (``bodies``, ``poses``, ``seeds``...).
+    fields : more structured fields of its rows (``bodies``, ``poses``, ``ensemble``: an ensemble's size...).
     """
 
     key: str
@@ -321,7 +321,7 @@ POINT_VARIANTS = {
 MORE_BODIES = {
     "bodies-shape": ("OperatorNet ours, a body per shape (Int+Ext)", {"bodies": "shape"}, 1),
     "bodies-shape-poses-quarter": (
-        "OperatorNet ours, a body per shape, more random poses, 2 seeds (Int+Ext)",
+        "OperatorNet ours, a body per shape, more random poses, an ensemble of 2 (Int+Ext)",
         {"bodies": "shape", "poses": "quarter"},
         2,
     ),

@@ -547,8 +547,9 @@ def headline_markdown(rows: list[dict]) -> list[str]:
     """The README's headline Table 1 (lines): each Table 1 method, and each row beside it, evaluated on all of
     ``test`` and ``test_subjects`` (not the networks of :data:`MAPPED_GROUPS`, nor the refinements and the entries of
     :data:`~opnet.experiments.plan.SUBSET_ENTRIES`, nor a row measured on fewer shapes of a split than others, as
-    those of an older file without entries), its mean d_R (×10⁻⁴), d_V and d_E on ``test``, its mean
-    d_R on ``test_subjects`` and the paper's numbers; empty without Table 1 rows.
+    those of an older file without entries), its d_R (×10⁻⁴; :func:`value_text`: ``mean ± half-width`` for a row
+    over seeds, and then a line under the table says so), mean d_V and d_E on ``test``, its d_R on ``test_subjects``
+    and the paper's numbers; empty without Table 1 rows.
     """
     t1 = [
         r
@@ -566,11 +567,13 @@ def headline_markdown(rows: list[dict]) -> list[str]:
         "| method | test: d_R | d_V | d_E | unseen subjects: d_R | paper d_R / d_V / d_E |",
         "|---|---:|---:|---:|---:|---|",
     ]
+    seeded = False  # whether a printed d_R has an interval
     for key in dict.fromkeys(row_key(r) for r in t1):
         test = next((r for r in t1 if row_key(r) == key and r["split"] == "test"), None)
         unseen = next((r for r in t1 if row_key(r) == key and r["split"] == "test_subjects"), None)
         if test is None:
             continue
+        seeded |= any(r is not None and r.get("d_R_low") is not None for r in (test, unseen))
         paper = paper_table1(test)
         lines.append(
             f"| {test['method']} | {value_text(test, 'd_R', 1e4)} | {number_text(test['d_V'])} | "
@@ -578,7 +581,7 @@ def headline_markdown(rows: list[dict]) -> list[str]:
             f"{'–' if unseen is None else value_text(unseen, 'd_R', 1e4)} | "
             f"{'–' if paper is None else ' / '.join(f'{p:g}' for p in paper)} |"
         )
-    if any(r.get("d_R_low") is not None for r in t1):
+    if seeded:
         lines += ["", f"d_R ×10⁻⁴ m²; {_SEEDED} over seeds and shapes, the other columns the means."]
     return lines
 
