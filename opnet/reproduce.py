@@ -127,7 +127,8 @@ def plan_for(config: ReproduceConfig):
 
 
 def reproduce(config: ReproduceConfig | str = "quick", out=None, **options) -> list[dict]:
-    """Reproduce the paper's Table 1, the rows beside it and the ablation on a collection; returns the rows.
+    """Reproduce the paper's Table 1, the rows beside it and the ablation on a collection; returns the rows, as
+    written in ``results.json`` (the per-shape errors to :data:`~opnet.experiments.report.SHAPE_DIGITS` digits).
 
     ``config``: a :class:`~opnet.experiments.config.ReproduceConfig`, or a preset's name with the config's fields
     as keywords (``reproduce("quick", "out", ablation=False, collection="animals")``); ``out``: the output folder
@@ -175,8 +176,7 @@ def _reproduce(config: ReproduceConfig, out: Path) -> list[dict]:
 
     def save(rows):  # results.json/md: this call's rows, and an earlier call's that it did not measure again
         merged, merged_context = merge_results(earlier, rows, context)
-        write_results(out, merged, merged_context, time.perf_counter() - t_start)
-        return merged
+        return write_results(out, merged, merged_context, time.perf_counter() - t_start)  # the rows as written
 
     bar = tqdm(total=len(plan), desc="reproduce", unit="step", disable=progress is False)
     extra_channels = [ip.name for ip in new]

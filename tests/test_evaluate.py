@@ -158,7 +158,7 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, profile_loads, 
     } | {(e.name, s) for e in plan.entries if e.part == "refine" for s in reproduce.REFINE_SETS}
     for e in bodies:  # our variant on more bodies: its rows say which
         mine = [r for r in t1 if r["entry"] == e.key]
-        assert mine and all({k: r[k] for k in ("bodies", "poses", "seeds") if k in r} == e.fields for r in mine)
+        assert mine and all({k: r[k] for k in ("bodies", "poses", "ensemble") if k in r} == e.fields for r in mine)
         assert all(r["group"] == e.spec.group and r["run"] == "+".join(s.run_name for s in e.runs) for r in mine)
     seeds = sum(len(e.runs) for e in bodies)
     assert seeds > len(bodies)  # an ensemble's seeds: each trained

@@ -211,9 +211,10 @@ RESULTS_FORMAT, RESULTS_VERSION = "opnet.results", 2
 SHAPE_DIGITS = 7
 
 
-def write_results(out: Path, rows: list[dict], context: dict, seconds: float) -> None:
+def write_results(out: Path, rows: list[dict], context: dict, seconds: float) -> list[dict]:
     """Write ``out/results.json`` (the rows and ``context`` with ``wall_seconds`` = ``seconds``: all that
-    :func:`results_markdown` needs) and ``out/results.md`` (that Markdown, of the rows as written), each atomically.
+    :func:`results_markdown` needs) and ``out/results.md`` (that Markdown, of the rows as written), each atomically;
+    returns the rows as written (what :func:`read_results` gives back).
 
     The per-shape errors (``<metric>_shapes``, per seed and shape: what the intervals and the claims' paired
     comparisons read) keep :data:`SHAPE_DIGITS` significant digits; they and the shapes' indices are written a list
@@ -225,6 +226,7 @@ def write_results(out: Path, rows: list[dict], context: dict, seconds: float) ->
     atomic_write(out / "results.json", lambda f: f.write(_results_json(data).encode()))
     md = results_markdown(rows, context)
     atomic_write(out / "results.md", lambda f: f.write(md.encode()))
+    return rows
 
 
 def _rounded(value):
