@@ -670,3 +670,15 @@ def test_results_json_keeps_per_shape_errors_to_seven_digits_on_one_line_each(tm
     assert np.isnan(got[0, 5]) and np.allclose(got, errors, rtol=1e-6, atol=0, equal_nan=True)
     assert not np.array_equal(got, errors, equal_nan=True)  # rounded: seven significant digits
     assert context["wall_seconds"] == 1.0
+
+
+def test_table1_lists_each_seeds_error_under_the_table():
+    base = dict(table="table1", architecture="operatornet", variant="paper", group="table1", method="OperatorNet",
+                channels=list(opnet.KINDS), depth=1, d_R_median=1e-4, d_V=0.01, d_E=0.02, n_shapes=4,
+                train_seconds=10.0, seconds_per_shape=0.001)  # fmt: skip
+    seeded = dict(base, run="r+r-s1+r-s2", split="test", d_R=2e-4, d_R_low=1e-4, d_R_high=3e-4)
+    seeded |= dict(d_R_seeds=[1e-4, 2e-4, 3e-4], d_R_std=1e-4, seeds=[0, 1, 2])
+    lines = report.table1_markdown([seeded, dict(base, run="one", method="One", split="test", d_R=1e-4)])
+    assert lines[-1] == "- OperatorNet: 1, 2, 3 (seeds 0, 1, 2; sd 1)"  # a training: anywhere in that range
+    assert lines[-2].startswith("Seed to seed, `test` d_R") and not any(x.startswith("- One") for x in lines)
+    assert "Seed to seed" not in "\n".join(report.table1_markdown([dict(base, run="one", split="test", d_R=1e-4)]))

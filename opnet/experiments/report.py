@@ -539,6 +539,22 @@ def table1_markdown(rows: list[dict], paper: bool = True) -> list[str]:
             f"{name}: evaluated on {', '.join(where)} (evenly spaced, to bound the optimisation's time; "
             "`Budget.refine_shapes`)."
         )
+    return lines + seed_spread_markdown(t1)
+
+
+def seed_spread_markdown(rows: list[dict], split: str = "test") -> list[str]:
+    """How far one training is from another (lines): for each row over seeds on ``split``, each seed's mean d_R
+    (×10⁻⁴, over the shapes) and their standard deviation; empty when no row has seeds. What the interval cannot
+    show: a single training's number may be anywhere in this range.
+    """
+    seeded = [r for r in rows if r.get("split") == split and r.get("d_R_seeds")]
+    if not seeded:
+        return []
+    lines = ["", f"Seed to seed, `{split}` d_R ×10⁻⁴ (each training's mean over the shapes; their standard deviation):"]
+    for r in seeded:
+        each = ", ".join(number_text(v, 1e4) for v in r["d_R_seeds"])
+        seeds = ", ".join(map(str, r.get("seeds") or range(len(r["d_R_seeds"]))))
+        lines.append(f"- {r['method']}: {each} (seeds {seeds}; sd {number_text(r.get('d_R_std'), 1e4, 2)})")
     return lines
 
 
