@@ -41,6 +41,8 @@ __all__ = [
     "context_markdown",
     "table1_markdown",
     "headline_markdown",
+    "seed_spread_markdown",
+    "SHAPE_DIGITS",
     "value_text",
     "ablation_markdown",
     "discretisation_markdown",
