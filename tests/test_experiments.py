@@ -473,8 +473,9 @@ def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules,
 @pytest.mark.slow
 def test_jobs_interrupted_after_hours_keeps_the_rows_it_measured_and_resumes_to_them(capsules, tmp_path, monkeypatch):
     """--jobs 2 interrupted while the ablation's networks still train (Ctrl-C in the wait): results.json already
-    holds Table 1's rows, the trainings not waited for stop with it (no warning), and a second call measures the
-    rest, keeping those rows, to the rows of an uninterrupted call."""
+    holds Table 1's rows (and any ablation entry whose networks had finished), the trainings not waited for stop
+    with it (no warning), and a second call measures the rest, keeping those rows, to the rows of an uninterrupted
+    call."""
     import warnings
 
     from opnet.experiments import runner
@@ -496,7 +497,11 @@ def test_jobs_interrupted_after_hours_keeps_the_rows_it_measured_and_resumes_to_
         with pytest.raises(KeyboardInterrupt):
             reproduce.reproduce("quick", out, **options)
     kept = reproduce.read_results(out)[0]
-    assert {r["table"] for r in kept} == {"table1"} and "int+ext" in {r["entry"] for r in kept}
+    # Table 1's rows are written; of the ablation, at most the entries whose networks happened to finish while
+    # Table 1 was waited for (joblib hands back whichever training finishes next), never all of them
+    assert {r["table"] for r in kept} <= {"table1", "ablation"} and "int+ext" in {r["entry"] for r in kept}
+    ablation = lambda rows: {r["entry"] for r in rows if r["table"] == "ablation"}  # noqa: E731
+    assert ablation(kept) < ablation(whole)
     monkeypatch.setattr(reproduce._SideBySide, "wait", real_wait)
     evaluated, real_evaluate = [], runner.evaluate
     monkeypatch.setattr(
@@ -505,7 +510,9 @@ def test_jobs_interrupted_after_hours_keeps_the_rows_it_measured_and_resumes_to_
     )  # fmt: skip
     again = reproduce.reproduce("quick", out, **options)
     key = lambda r: (r["entry"], r["split"])  # noqa: E731
-    assert {key(r): r["d_R"] for r in again} == {key(r): r["d_R"] for r in whole}
+    # a network trained in a new worker process may round differently in the last bits (seen: 4e-10 relative after
+    # two epochs; test_train's SIGKILL test says the same of a fresh process), so rows agree to 1e-6
+    assert {key(r): r["d_R"] for r in again} == pytest.approx({key(r): r["d_R"] for r in whole}, rel=1e-6)
     assert evaluated and not {r["entry"] for r in kept} & set(evaluated)  # the rows written are kept, not redone
     assert all(e.startswith("ablation-") for e in evaluated), evaluated
 
