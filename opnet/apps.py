@@ -342,6 +342,8 @@ def analogy_quadruples(collection, kind: str = "pose", n: int = 100, *, seed: in
     - ``kind="gender"`` (gender transfer, the paper's Figs. 10 and 13): ``(a♂, p) : (a♀, p) :: (b♂, q) : X = (b♀, q)``,
       where ``a♂`` is subject ``a`` with the gender phenotype set to male (0) and ``a♀`` to female (1), the rest of
       the subject unchanged: ``A`` and ``B`` differ by gender alone, ``C`` varies (another subject, another pose).
+      The paper keeps one fixed ``A``/``B`` pair for all its questions; here each question draws its own, so that
+      the rows average over pairs as well.
 
     The four shapes are generated anew (:func:`opnet.data.generators.generate_shapes`); ``seed`` draws them (each
     kind its own draws, so that the kinds are independent samples: the linear algebra, ``C + B − A``, would

@@ -5,7 +5,9 @@ OperatorNet reads ``C`` shape-difference matrices ``(C, k, k)`` as image channel
 convolutional encoder (3 × 3 convolutions, stride 2, 8 filters doubling per layer, ReLU; one layer by
 default, the paper's best in its ablation, Appendix B) and a dense decoder (1024, 1024, n · 3).
 :class:`PointNetAutoencoder` reads the coordinates themselves with a PointNet encoder and decodes them with
-the same dense decoder. :data:`ARCHITECTURES` names both for :func:`build_model` and the trainer.
+the same dense decoder; :class:`PointNetTransformerAutoencoder` adds PointNet's input transform and
+:class:`PointNet2Autoencoder` reads them with a PointNet++ encoder. :data:`ARCHITECTURES` names the four for
+:func:`build_model` and the trainer.
 """
 
 from __future__ import annotations

@@ -399,7 +399,7 @@ def test_benchmarks_rows(humans):
 
 def test_the_other_point_set_autoencoders_train_and_read_their_points(coll, tmp_path):
     """The paper's other PointNet (with its input transform, which starts as the identity) and the PointNet++
-    autoencoder (Fig. 18) train like the PointNet AE, and are loaded back by their checkpoints' architecture."""
+    autoencoder (Fig. 17) train like the PointNet AE, and are loaded back by their checkpoints' architecture."""
     from opnet.model import PointNet2Autoencoder, PointNetAutoencoder, PointNetTransformerAutoencoder, farthest_points
 
     torch.manual_seed(0)

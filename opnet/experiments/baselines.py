@@ -97,6 +97,10 @@ def _funcchar(collection, budget, device, channels=FUNCCHAR, name="FuncChar (Int
     (``collection`` must hold them: ``collection.with_channels([*collection.channels, "offset_area",
     "offset_conformal"])``), with :data:`REFINE`'s optimiser and smoothness; ``channels=FUNCCHAR_INT``: FuncChar
     (Int), the area and conformal operators alone.
+
+    Corman et al. 2017 match the same operators (a shape's area and conformal shape differences, and its offset
+    surface's), truncated as here. The solver is this project's, not theirs: L-BFGS on the vertices from the base
+    shape, with :data:`REFINE`'s Dirichlet smoothness term.
     """
     missing = [c for c in channels if c not in collection.channels]
     if missing:
