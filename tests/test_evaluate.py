@@ -167,7 +167,14 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, profile_loads, 
     assert len(refined) == 12 + 2 * len(bodies)
     for key, channels in (("funcchar", reproduce.FUNCCHAR), ("funcchar_int", FUNCCHAR_INT)):
         assert {tuple(r["channels"]) for r in refined if r.get("baseline") == key} == {channels}
-    for claim in ("funcchar-offset-helps", "sfl-best-d_E", "operatornet-beats-sfl"):
+    for claim in (
+        "funcchar-offset-helps",
+        "sfl-best-d_E",
+        "operatornet-beats-sfl",
+        "sfl-d_E-below-nn",
+        "operatornet-beats-funcchar",
+        "operatornet-beats-funcchar-int",
+    ):
         assert not claims.judge(claim, saved).missing, claim  # its two rows are there
     for r in refined:  # a refinement's rows carry its network's run fields
         start = plan[r["entry"]].refines
