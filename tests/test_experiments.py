@@ -510,8 +510,8 @@ def test_jobs_interrupted_after_hours_keeps_the_rows_it_measured_and_resumes_to_
     )  # fmt: skip
     again = reproduce.reproduce("quick", out, **options)
     key = lambda r: (r["entry"], r["split"])  # noqa: E731
-    # a network trained in a new worker process may round differently in the last bits (seen: 4e-10 relative after
-    # two epochs; test_train's SIGKILL test says the same of a fresh process), so rows agree to 1e-6
+    # a network trained by another worker, one that trained other networks first, may round differently in the last
+    # bits (seen: 4e-10 relative; test_train's SIGKILL test trains in fresh processes for this), so rows agree to 1e-6
     assert {key(r): r["d_R"] for r in again} == pytest.approx({key(r): r["d_R"] for r in whole}, rel=1e-6)
     assert evaluated and not {r["entry"] for r in kept} & set(evaluated)  # the rows written are kept, not redone
     assert all(e.startswith("ablation-") for e in evaluated), evaluated

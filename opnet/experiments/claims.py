@@ -165,7 +165,7 @@ CLAIMS = (
     ),
     Claim(
         "sfl-d_E-below-nn",
-        "Given the full Laplacian, SfL keeps edge lengths better than NN, the table's next best d_E",
+        "Given the full Laplacian, SfL keeps edge lengths better than NN (the paper's next best d_E)",
         PAPER_ROWS["SfL"],
         _NN,
         "Table 1",
