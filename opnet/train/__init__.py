@@ -129,7 +129,7 @@ def fit(
     hidden, subtract_identity : see :class:`opnet.OperatorNet`. The network sees ``D − I`` by default.
     variant : ``"paper"`` (the paper's architecture) or ``"ours"`` (:data:`opnet.model.VARIANTS`: standardised
         inputs, a displacement from the base, and ``schedule="onecycle"``); the variant section of ``docs/results.md``.
-    schedule : the learning rate over the run: ``"constant"`` (the paper's; default for ``"paper"``) or
+    schedule : the learning rate over the run: ``"constant"`` (as the paper's code trains; default for ``"paper"``) or
         ``"onecycle"`` (default for ``"ours"``): a cosine warm-up from ``lr/25`` to ``lr`` over the first 5 % of
         the steps, then a cosine decay towards ``lr/2.5e5`` at the end of the run (as
         ``torch.optim.lr_scheduler.OneCycleLR``).

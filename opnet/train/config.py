@@ -32,7 +32,8 @@ __all__ = [
     "DEPTHS",
 ]
 
-#: The learning-rate schedules of :func:`opnet.train.fit`: the paper's constant rate, or one cycle (our variant's).
+#: The learning-rate schedules of :func:`opnet.train.fit`: a constant rate (the paper's code's), or one cycle
+#: (our variant's).
 SCHEDULES = ("constant", "onecycle")
 #: The encoder depths of OperatorNet (the paper's ablation).
 DEPTHS = (1, 2, 3, 4)
