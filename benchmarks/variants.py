@@ -1,8 +1,8 @@
-"""Benchmark: each idea of OperatorNet's ``variant="ours"`` alone, on ``val``, with the paper's training budget.
+"""Benchmark: each idea of OperatorNet's ``variant="ours"`` alone, on ``val``, with one training budget for all.
 
 Trains, through :func:`opnet.train.fit` (same data, seed, epochs, batch size and peak learning rate for all):
 
-- ``paper``: the paper's network (fed ``D − I``, constant learning rate);
+- ``paper``: the paper's network (fed ``D − I``, a constant learning rate, as the paper's code trains);
 - ``standardize``: + per-entry standardised inputs ``(D − μ) / σ``;
 - ``standardize+residual``: + decoding a displacement from the base;
 - ``onecycle``: the paper's network with the one-cycle learning rate only;
