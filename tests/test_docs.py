@@ -94,8 +94,9 @@ def test_the_readme_is_short_and_its_table1_is_the_shipped_one():
     for page in (ROOT / "docs").glob("*.md"):  # the docs hold their own text: none depends on the README
         assert "../README.md" not in page.read_text(), page.name
     block = readme[readme.index("<!-- headline-table1 -->") : readme.index("<!-- headline-table1-end -->")]
-    expected = headline_markdown(shipped_results("default")[0])
+    expected = headline_markdown(*shipped_results("default"))
     assert expected and block.strip().splitlines()[1:] == expected
+    assert expected[-1].startswith("Measured ")  # when, where and at which budget the shipped file was measured
 
 
 def test_ship_results_renders_the_readmes_headline_from_the_rows(tmp_path):
@@ -112,14 +113,14 @@ def test_ship_results_renders_the_readmes_headline_from_the_rows(tmp_path):
     start, end = HEADLINE_MARKERS
     readme = tmp_path / "README.md"
     readme.write_text(f"# title\n\nbefore\n{start}\n| stale | table |\n{end}\n\nafter\n")
-    rows = shipped_results("default")[0]
-    write_readme_headline(readme, rows)
+    rows, context = shipped_results("default")
+    write_readme_headline(readme, rows, context)
     text = readme.read_text()
     assert text.startswith("# title\n\nbefore\n") and text.endswith(f"{end}\n\nafter\n") and "stale" not in text
-    assert text[text.index(start) : text.index(end)].strip().splitlines()[1:] == headline_markdown(rows)
+    assert text[text.index(start) : text.index(end)].strip().splitlines()[1:] == headline_markdown(rows, context)
     readme.write_text("no markers\n")
     with pytest.raises(ValueError, match="headline-table1"):
-        write_readme_headline(readme, rows)
+        write_readme_headline(readme, rows, context)
 
 
 #: Decimal numbers docs/results.md may quote that none of its sources prints, each with where it comes from.

@@ -661,6 +661,25 @@ def test_the_headline_prints_a_seeded_rows_interval_and_says_so():
     assert lines[-1].startswith("d_R ×10⁻⁴ m²; a network trained with several seeds: mean ± half-width")
 
 
+def test_the_provenance_line_gives_the_dates_machine_and_budget_of_old_and_new_files():
+    old = dict(preset="default", date="2026-12-03", machine="CPU", earlier=[dict(date="2026-12-02")])
+    old["budget"] = dict(epochs=60, lr=1e-3, batch_size=32)  # written before schedules and seeds were recorded
+    assert report.provenance_text(old) == (
+        "Measured from 2026-12-02 to 2026-12-03 on CPU, at the `default` preset's budget then: 60 epochs at a "
+        "constant learning rate of 0.001, batch 32, 1 seed per network."
+    )
+    new = dict(old, earlier=[], budget=dict(old["budget"], schedule="onecycle", seeds=3))
+    assert report.provenance_text(new).startswith("Measured on 2026-12-03 on CPU")
+    assert "60 epochs at a one-cycle learning rate peaking at 0.001, batch 32, 3 seeds per network." in (
+        report.provenance_text(new)
+    )
+    assert "an unrecorded budget" in report.provenance_text(dict(preset="quick"))
+    rows = [dict(table="table1", architecture="operatornet", variant="paper", group="table1", run="r", n_shapes=4,
+                 method="OperatorNet", channels=list(opnet.KINDS), depth=1, d_R=1e-4, d_V=0.01, d_E=0.02, split=s)
+            for s in ("test", "test_subjects")]  # fmt: skip
+    assert report.headline_markdown(rows, new)[-1] == report.provenance_text(new)
+
+
 def test_results_json_keeps_per_shape_errors_to_seven_digits_on_one_line_each(tmp_path):
     from opnet.experiments import shipped
 

@@ -96,17 +96,17 @@ def write_results_fragments(out: Path, preset: str = "default", collection: str 
 HEADLINE_MARKERS = ("<!-- headline-table1 -->", "<!-- headline-table1-end -->")
 
 
-def write_readme_headline(readme: Path, rows: list[dict] | None = None) -> Path:
+def write_readme_headline(readme: Path, rows: list[dict] | None = None, context: dict | None = None) -> Path:
     """Replace the headline Table 1 between the README's :data:`HEADLINE_MARKERS` by
-    :func:`~opnet.experiments.report.headline_markdown` of ``rows`` (default: the shipped `default` reproduction's);
-    the rest of the file is kept. Returns the path.
+    :func:`~opnet.experiments.report.headline_markdown` of ``rows`` and their file's ``context`` (default: the
+    shipped `default` reproduction's); the rest of the file is kept. Returns the path.
     """
     readme = Path(readme)
     text = readme.read_text()
     start, end = HEADLINE_MARKERS
     if text.count(start) != 1 or text.count(end) != 1 or text.index(start) > text.index(end):
         raise ValueError(f"{readme} must hold {start} and then {end} once each, around its headline table.")
-    lines = headline_markdown(shipped_results("default")[0] if rows is None else rows)
+    lines = headline_markdown(*(shipped_results("default") if rows is None else (rows, context)))
     if not lines:
         raise ValueError("the rows hold no Table 1 row to put in the README's headline.")
     before, rest = text.split(start)

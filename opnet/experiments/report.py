@@ -41,6 +41,7 @@ __all__ = [
     "context_markdown",
     "table1_markdown",
     "headline_markdown",
+    "provenance_text",
     "seed_spread_markdown",
     "SHAPE_DIGITS",
     "value_text",
@@ -563,13 +564,15 @@ def seed_spread_markdown(rows: list[dict], split: str = "test") -> list[str]:
 _HEADLINE_SPLITS = ("test", "test_subjects")
 
 
-def headline_markdown(rows: list[dict]) -> list[str]:
+def headline_markdown(rows: list[dict], context: dict | None = None) -> list[str]:
     """The README's headline Table 1 (lines): each Table 1 method, and each row beside it, evaluated on all of
     ``test`` and ``test_subjects`` (not the networks of :data:`MAPPED_GROUPS`, nor the refinements and the entries of
     :data:`~opnet.experiments.plan.SUBSET_ENTRIES`, nor a row measured on fewer shapes of a split than others, as
     those of an older file without entries), its d_R (×10⁻⁴; :func:`value_text`: ``mean ± half-width`` for a row
     over seeds, and then a line under the table says so), mean d_V and d_E on ``test``, its d_R on ``test_subjects``
-    and the paper's numbers; empty without Table 1 rows.
+    and the paper's numbers; empty without Table 1 rows. With the file's ``context`` (what
+    :func:`read_results` returns beside the rows), a last line says when, where and at which training budget the
+    file was measured (:func:`provenance_text`).
     """
     t1 = [
         r
@@ -603,7 +606,43 @@ def headline_markdown(rows: list[dict]) -> list[str]:
         )
     if seeded:
         lines += ["", f"d_R ×10⁻⁴ m²; {_SEEDED} over seeds and shapes, the other columns the means."]
+    if context:
+        lines += ["", provenance_text(context)]
     return lines
+
+
+def provenance_text(context: dict) -> str:
+    """One sentence on a results file's ``context``: the dates of its calls (``earlier`` ones included), the
+    machine, and the training budget of Table 1's networks (epochs, learning-rate schedule and peak, batch size,
+    seeds per network; a file written before schedules and seeds were recorded trained at a constant rate, one
+    seed).
+    """
+    budget = context.get("budget") or {}
+    dates = sorted({c["date"] for c in [*context.get("earlier", []), context] if c.get("date")})
+    when = (
+        "on an unrecorded date"
+        if not dates
+        else f"on {dates[0]}"
+        if len(dates) == 1
+        else f"from {dates[0]} to {dates[-1]}"
+    )
+    seeds = int(budget.get("seeds", 1))
+    schedule = budget.get("schedule", "constant")
+    rate = (
+        f"a constant learning rate of {budget.get('lr', 0):g}"
+        if schedule == "constant"
+        else f"a {'one-cycle' if schedule == 'onecycle' else schedule} learning rate peaking at {budget.get('lr', 0):g}"
+    )
+    training = (
+        f"{budget['epochs']} epochs at {rate}, batch {budget['batch_size']}, "
+        f"{seeds} seed{'s' if seeds != 1 else ''} per network"
+        if {"epochs", "lr", "batch_size"} <= budget.keys()
+        else "an unrecorded budget"
+    )
+    return (
+        f"Measured {when} on {context.get('machine', 'an unrecorded machine')}, at the "
+        f"`{context.get('preset', '?')}` preset's budget then: {training}."
+    )
 
 
 def ablation_markdown(rows: list[dict], budget: dict, paper: bool = True) -> list[str]:
