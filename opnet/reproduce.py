@@ -22,6 +22,7 @@ again, :func:`opnet.experiments.report.merge_results`):
 
 from __future__ import annotations
 
+import shutil
 import time
 import warnings
 from dataclasses import asdict
@@ -185,7 +186,7 @@ def _reproduce(config: ReproduceConfig, out: Path) -> list[dict]:
     first = [e for e in plan.entries if e.table != "ablation"]  # then the steps, then the ablation
     ablation = [e for e in plan.entries if e.table == "ablation"]
     # dispatched in the order measured: a digest two entries share trains in the first one's folder, where it is loaded
-    trained = _SideBySide(config, ws, first + ablation) if config.jobs > 1 else None
+    trained = _SideBySide(config, ws, first + ablation, _scratch(out)) if config.jobs > 1 else None
     figures = out / "figures" if config.figures else None
     try:
         kept = dict(context=row_stamp, earlier=before)
@@ -232,15 +233,27 @@ def _collection(config: ReproduceConfig, plan):
     return (coll.with_channels([*coll.channels, *new]) if new else coll), new
 
 
+def _scratch(out: Path) -> Path:
+    """``out/.joblib``, emptied: where joblib memory-maps the arrays it hands the side-by-side trainings. On disk, not
+    in ``/dev/shm`` (joblib's default): a call stopped by SIGKILL cannot delete its maps, and in shared memory they
+    would hold RAM until the machine restarts (a few GB per stopped `default` reproduction). The folder's writer
+    lock makes this call its only user, so whatever an earlier call left there is deleted.
+    """
+    scratch = out / ".joblib"
+    shutil.rmtree(scratch, ignore_errors=True)
+    scratch.mkdir(parents=True)
+    return scratch
+
+
 class _SideBySide:
     """The unfinished trainings of ``entries`` (:meth:`Workspace.trainings`, in the plan's order) in ``config.jobs``
     processes, each with an equal share of the cores, into ``ws``'s runs folder; :meth:`wait` returns once an entry's
     own trainings are finished, so that the plan evaluates (and writes) each entry while later ones still train, and
     an interruption after hours keeps every row measured so far. joblib hands each process its collection (its
-    arrays memory-mapped, not copied); an interrupted run resumes from its last epoch.
+    arrays memory-mapped in ``scratch``, :func:`_scratch`, not copied); an interrupted run resumes from its last epoch.
     """
 
-    def __init__(self, config: ReproduceConfig, ws: Workspace, entries):
+    def __init__(self, config: ReproduceConfig, ws: Workspace, entries, scratch: Path):
         from tqdm.auto import tqdm
 
         from ._extras import require
@@ -260,7 +273,7 @@ class _SideBySide:
         threads = max(1, usable_cores() // config.jobs)  # a training's share, however many are left (its numbers keep)
         task = joblib.delayed(_train_one)
         # config.jobs processes even for one training left: n_jobs=1 would run it in this process (its threads, watch)
-        parallel = joblib.Parallel(n_jobs=config.jobs, return_as="generator_unordered")
+        parallel = joblib.Parallel(n_jobs=config.jobs, return_as="generator_unordered", temp_folder=str(scratch))
         self.bar = tqdm(
             total=len(self.pending),
             desc=f"training {config.jobs} side by side",

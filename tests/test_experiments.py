@@ -465,8 +465,12 @@ def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules,
     # one training left: it too runs in another process, and this process keeps its thread count
     shutil.rmtree(next((tmp_path / "two" / "runs").glob("table1-A+E+C-d1-*")))
     threads = torch.get_num_threads()
+    stale = tmp_path / "two" / ".joblib" / "joblib_memmapping_folder_1_killed"  # what a SIGKILLed call leaves
+    stale.mkdir(parents=True)
+    (stale / "operators.pkl").write_bytes(b"x" * 1000)
     again = reproduce.reproduce("quick", tmp_path / "two", jobs=2, **options)
     assert torch.get_num_threads() == threads
+    assert (tmp_path / "two" / ".joblib").is_dir() and not stale.exists()  # joblib's maps on disk, old ones deleted
     assert sorted(map(key, again)) == sorted(map(key, two))
 
 
