@@ -669,12 +669,12 @@ def test_the_provenance_line_gives_the_dates_machine_and_budget_of_old_and_new_f
     old = dict(preset="default", date="2026-12-03", machine="CPU", earlier=[dict(date="2026-12-02")])
     old["budget"] = dict(epochs=60, lr=1e-3, batch_size=32)  # written before schedules and seeds were recorded
     assert report.provenance_text(old) == (
-        "Measured from 2026-12-02 to 2026-12-03 on CPU, at the `default` preset's budget then: 60 epochs at a "
-        "constant learning rate of 0.001, batch 32, 1 seed per network."
+        "Measured from 2026-12-02 to 2026-12-03 on CPU, at the `default` preset's budget then: 60 epochs, a "
+        "constant lr 0.001 for the paper's networks (one-cycle with peak 0.001 for ours), batch 32, one seed each."
     )
-    new = dict(old, earlier=[], budget=dict(old["budget"], schedule="onecycle", seeds=3))
+    new = dict(old, earlier=[], seeds=3, budget=dict(old["budget"], schedule="onecycle", seeds=3))
     assert report.provenance_text(new).startswith("Measured on 2026-12-03 on CPU")
-    assert "60 epochs at a one-cycle learning rate peaking at 0.001, batch 32, 3 seeds per network." in (
+    assert "60 epochs, onecycle schedule with peak lr 0.001 for every network, batch 32, each with 3 seeds (0–2)." in (
         report.provenance_text(new)
     )
     assert "an unrecorded budget" in report.provenance_text(dict(preset="quick"))

@@ -613,9 +613,9 @@ def headline_markdown(rows: list[dict], context: dict | None = None) -> list[str
 
 def provenance_text(context: dict) -> str:
     """One sentence on a results file's ``context``: the dates of its calls (``earlier`` ones included), the
-    machine, and the training budget of Table 1's networks (epochs, learning-rate schedule and peak, batch size,
-    seeds per network; a file written before schedules and seeds were recorded trained at a constant rate, one
-    seed).
+    machine, and the training budget of Table 1's networks (epochs, the learning rate as :func:`context_markdown`
+    words it, batch size, seeds; a file written before schedules and seeds were recorded reads as a constant rate
+    and one seed).
     """
     budget = context.get("budget") or {}
     dates = sorted({c["date"] for c in [*context.get("earlier", []), context] if c.get("date")})
@@ -626,16 +626,8 @@ def provenance_text(context: dict) -> str:
         if len(dates) == 1
         else f"from {dates[0]} to {dates[-1]}"
     )
-    seeds = int(budget.get("seeds", 1))
-    schedule = budget.get("schedule", "constant")
-    rate = (
-        f"a constant learning rate of {budget.get('lr', 0):g}"
-        if schedule == "constant"
-        else f"a {'one-cycle' if schedule == 'onecycle' else schedule} learning rate peaking at {budget.get('lr', 0):g}"
-    )
     training = (
-        f"{budget['epochs']} epochs at {rate}, batch {budget['batch_size']}, "
-        f"{seeds} seed{'s' if seeds != 1 else ''} per network"
+        f"{budget['epochs']} epochs, {_schedule_text(budget)}, batch {budget['batch_size']}{_seeds_text(context)}"
         if {"epochs", "lr", "batch_size"} <= budget.keys()
         else "an unrecorded budget"
     )
