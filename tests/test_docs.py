@@ -127,6 +127,12 @@ def test_ship_results_renders_the_readmes_headline_from_the_rows(tmp_path):
 RESULTS_UNPRINTED = {
     "1.067": "a seed's tail ratio in benchmarks/results/schedules-quick-short.json (its report: converged or not)",
     "3.909": "3.466 + 0.443: the schedule rule's tie-break, computed in the text",
+    # the one-seed reproductions at a constant rate that the seeded one replaced, quoted as history:
+    "0.771": "OperatorNet (Int+Ext), test, the file shipped in d4c64d2 (git show d4c64d2:opnet/experiments/results/…)",
+    "1.14": "OperatorNet (Int+Ext), test, the file shipped from 85968bc to 2d44bfe",
+    "0.913": "OperatorNet (Ext), test, the file shipped from 85968bc to 2d44bfe",
+    "0.589": "OperatorNet (Int), test, the file shipped from 85968bc to 2d44bfe",
+    "1.12": "OperatorNet (Int+Ext), the discretisation table's 1k exact row, the file shipped until 2d44bfe",
 }
 
 

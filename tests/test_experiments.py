@@ -173,6 +173,21 @@ def test_targets_are_judged_on_rows_by_their_fields():
     assert not any("target" in line for line in report.targets(rows, paper=False))
 
 
+def test_refinement_is_set_beside_the_seed_it_refined():
+    """A seeded row (one run per seed) and the refinement of its seed 0: the Targets line finds the refinement by the
+    seeds' runs and says which seed it refined."""
+    paper = plan.PAPER_ROWS["OperatorNet (Int+Ext)"]
+    runs = ["net", "net-s1", "net-s2"]
+    rows = [
+        _row(d_R=1e-4, run="+".join(runs), runs=runs, seeds=[0, 1, 2], **paper),
+        _row(d_R=0.5e-4, d_R_before=0.8e-4, run="net", seeds=[0], refined=True, n_shapes=80),
+    ]
+    (line,) = [line for line in report.targets(rows) if "refinement" in line]
+    assert "seed 0's m's d_R by -38 % (0.8 → 0.5 ×10⁻⁴ on the same 80 shapes)" in line
+    rows[1]["run"] = "other"  # another network's refinement is not set beside this one
+    assert not [line for line in report.targets(rows) if "refinement" in line]
+
+
 def test_every_target_names_its_rows_threshold_and_source():
     for t in targets.TARGETS:
         assert t.numerator and t.source and t.threshold > 0 and t.table in ("table1", "discretisation", "analogy")
@@ -695,7 +710,9 @@ def test_results_json_keeps_per_shape_errors_to_seven_digits_on_one_line_each(tm
     other = dict(rows[1], d_R_shapes=[[1.0, 2.0]], shapes=[7, 8])  # each row's lists go back in their own place
     report.write_results(tmp_path, [row, other], context, 1.0)
     text = (tmp_path / "results.json").read_text()
-    assert len(text.splitlines()) < 300  # 600 errors and 200 indices, but a line per list
+    lines = text.splitlines()  # 600 errors and 200 indices, but a line per list, whatever else the rows hold
+    errors_line, shapes_line = (next(line for line in lines if f'"{key}"' in line) for key in ("d_R_shapes", "shapes"))
+    assert errors_line.count(",") == 600 and shapes_line.count(",") == 200  # the numbers, and the comma after the list
     (back, back_other), context = report.read_results(tmp_path)
     assert back_other["d_R_shapes"] == [[1.0, 2.0]] and back_other["shapes"] == [7, 8]
     assert back["d_R"] == row["d_R"] and back["shapes"] == row["shapes"] and back["note"] == "kept as it is"
