@@ -31,6 +31,7 @@ __all__ = [
     "refinement_figures",
     "refinement_curves",
     "snapshot_steps",
+    "most_deformed",
     "discretisation_figure",
     "generalisation_figure",
 ]
@@ -201,9 +202,26 @@ def refinement_figures(out: Path, coll, net_method, steps: int, *, device="cpu",
     plotter.close()
 
 
+def most_deformed(distances, motions, shapes: int) -> np.ndarray:
+    """Indices (sorted) of ``shapes`` shapes far from the base and in different motions where there are enough:
+    the farthest shape (largest ``distances``, (N,)) of each motion (``motions``, (N,) labels), the motions in the
+    order of those shapes' distances, then the farthest of the shapes left. A motion's frames look alike, so a
+    figure of the ``shapes`` farthest shapes alone can show one motion three times.
+    """
+    order = np.argsort(distances, kind="stable")[::-1]
+    firsts = {}  # motion -> its farthest shape, in the order of their distances
+    for i in order:
+        firsts.setdefault(motions[i], i)
+    chosen = list(firsts.values())[:shapes]
+    taken = set(chosen)
+    chosen += [i for i in order if i not in taken][: shapes - len(chosen)]
+    return np.sort(np.array(chosen, dtype=int))
+
+
 def discretisation_figure(mapped, nets: dict, shapes: int | None = None, *, labels: dict | None = None):
-    """The ``shapes`` shapes (default three, or all of a smaller ``mapped``) of ``mapped``
-    (:func:`opnet.data.mapped_collection` with computed maps) that are farthest from the base (the most deformed), on
+    """``shapes`` shapes (default three, or all of a smaller ``mapped``) of ``mapped``
+    (:func:`opnet.data.mapped_collection` with computed maps) far from the base (the most deformed shape of each of
+    the most deformed motions: ``most_deformed`` in this module), on
     their own mesh through their maps onto the base, and each reconstruction coloured by its error: a pyvista plotter
     (:func:`opnet.plotting.plot_mapped_reconstructions`; the maps are computed again, as they were for its operators:
     seconds each). ``nets``: name → network, or → an :class:`opnet.evaluate.Method` of the same shapes in the same
@@ -229,7 +247,7 @@ def discretisation_figure(mapped, nets: dict, shapes: int | None = None, *, labe
         raise ValueError("nets is empty: give at least one name → network (or → opnet.evaluate.Method).")
     headless()
     base = np.broadcast_to(mapped.base_basis.mesh.vertices, mapped.vertices.shape)
-    far = np.sort(np.argsort(d_R(mapped.vertices, base))[-shapes:])
+    far = most_deformed(d_R(mapped.vertices, base), np.asarray(mapped.params["motion"]), shapes)
     res, k = mapped.meta["map_resolution"], mapped.meta["map_k"]
     fine = generate_shapes(mapped, mapped.params["phenotypes"][far], mapped.params["controls"][far], resolution=res)
     spectrum = eigenbasis(mapped.base_basis.mesh, k)
