@@ -482,17 +482,6 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_
         evaluate.sfl_method(comp)  # SfL reads the full Laplacian in known correspondence
 
 
-def test_the_discretisation_figure_draws_the_farthest_shape_of_each_of_the_farthest_motions():
-    from opnet.experiments.figures import most_deformed
-
-    far = np.array([5.0, 4.0, 3.0, 2.0, 1.0, 0.5])  # distances from the base
-    motions = np.array(["a", "a", "a", "b", "c", "c"])
-    assert most_deformed(far, motions, 3).tolist() == [0, 3, 4]  # not 0, 1, 2: one motion three times
-    assert most_deformed(far, motions, 2).tolist() == [0, 3]
-    assert most_deformed(far, motions, 5).tolist() == [0, 1, 2, 3, 4]  # three motions, then the farthest left
-    assert most_deformed(far, np.array(["a"] * 6), 2).tolist() == [0, 1]
-
-
 def test_unseen_species_are_the_whole_species_held_out_and_only_species_collections_have_them(coll):
     """``unseen_species``: the ``test_subjects`` shapes whose body is a species of ``meta["species"]`` (not a blend);
     a collection without species names the sets it has."""

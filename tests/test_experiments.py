@@ -186,6 +186,30 @@ def test_refinement_is_set_beside_the_seed_it_refined():
     assert "seed 0's m's d_R by -38 % (0.8 → 0.5 ×10⁻⁴ on the same 80 shapes)" in line
     rows[1]["run"] = "other"  # another network's refinement is not set beside this one
     assert not [line for line in report.targets(rows) if "refinement" in line]
+    one = [
+        _row(d_R=1e-4, run="net", **paper),
+        _row(d_R=0.5e-4, d_R_before=0.8e-4, run="net", refined=True, n_shapes=80),
+    ]
+    (line,) = [line for line in report.targets(one) if "refinement" in line]  # a one-seed row: no seed named
+    assert "changes m's d_R by -38 %" in line
+    one[1]["d_R"] = None  # a refinement without its measurement is left out, not an error
+    assert not [line for line in report.targets(one) if "refinement" in line]
+
+
+def test_the_discretisation_figure_draws_the_farthest_shape_of_each_of_the_farthest_motions():
+    from opnet.experiments.figures import most_deformed
+
+    far = np.array([1.0, 5.0, 3.0, 4.0, 2.0, 2.0])  # distances from the base
+    motions = np.array(["a", "b", "c", "b", "a", "d"])
+    assert most_deformed(far, motions, 2).tolist() == [1, 2]  # b's farthest (5), then c's (3): not b's 4
+    assert most_deformed(far, motions, 4).tolist() == [1, 2, 4, 5]  # a's and d's tie at 2: both, a's lower index
+    assert most_deformed(far, motions, 5).tolist() == [1, 2, 3, 4, 5]  # four motions, then the farthest left
+    assert most_deformed(far, np.array(["a"] * 6), 2).tolist() == [1, 3]  # one motion: the farthest shapes
+    assert most_deformed([2.0, 2.0], ["a", "a"], 1).tolist() == [0]  # of equal distances, the lower index
+    assert most_deformed(far, motions, 9).tolist() == list(range(6))  # all there are
+    for bad in (dict(shapes=0), dict(distances=[np.nan] * 6), dict(motions=motions[:5])):
+        with pytest.raises(ValueError):
+            most_deformed(**(dict(distances=far, motions=motions, shapes=2) | bad))
 
 
 def test_every_target_names_its_rows_threshold_and_source():

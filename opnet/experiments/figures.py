@@ -203,12 +203,20 @@ def refinement_figures(out: Path, coll, net_method, steps: int, *, device="cpu",
 
 
 def most_deformed(distances, motions, shapes: int) -> np.ndarray:
-    """Indices (sorted) of ``shapes`` shapes far from the base and in different motions where there are enough:
-    the farthest shape (largest ``distances``, (N,)) of each motion (``motions``, (N,) labels), the motions in the
-    order of those shapes' distances, then the farthest of the shapes left. A motion's frames look alike, so a
-    figure of the ``shapes`` farthest shapes alone can show one motion three times.
+    """Indices (int, sorted, ``(min(shapes, N),)``) of ``shapes`` shapes far from the base and in different motions
+    where there are enough: the farthest shape (largest ``distances``, (N,), finite) of each motion (``motions``, (N,)
+    hashable labels), the motions in the order of those shapes' distances, then the farthest of the shapes left; of
+    equal distances, the lower index first. A motion's frames look alike, so a figure of the ``shapes`` farthest
+    shapes alone can show one motion three times.
     """
-    order = np.argsort(distances, kind="stable")[::-1]
+    distances = np.asarray(distances, dtype=float)
+    if distances.ndim != 1 or len(motions) != len(distances):
+        raise ValueError(f"distances (N,) and motions (N,) must match: got {distances.shape} and {len(motions)}.")
+    if not np.isfinite(distances).all():
+        raise ValueError("distances must be finite: a NaN or an infinity would rank first.")
+    if not isinstance(shapes, (int, np.integer)) or isinstance(shapes, bool) or shapes < 1:
+        raise ValueError(f"shapes must be a positive integer, got {shapes!r}.")
+    order = np.argsort(-distances, kind="stable")  # farthest first; ties: the lower index first
     firsts = {}  # motion -> its farthest shape, in the order of their distances
     for i in order:
         firsts.setdefault(motions[i], i)

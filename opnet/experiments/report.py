@@ -866,9 +866,10 @@ def targets(t1: list[dict], paper: bool = True) -> list[str]:
     lines = [_verdict_line(v, paper) for t in shown for v in judge(t, t1)]
     for fields in (_PAPER, _OURS):
         net = _find(t1, "test", **fields)
-        runs = [] if net is None else net.get("runs") or [net.get("run")]  # a seeded row: one run per seed
+        named = [] if net is None else net.get("runs") or [net.get("run")]  # a seeded row: one run per seed
+        runs = [r for r in named if r is not None]
         refined = next((r for r in t1 if r["split"] == "test" and r.get("refined") and r.get("run") in runs), None)
-        if refined is None or refined.get("d_R_before") is None:
+        if refined is None or None in (refined.get("d_R"), refined.get("d_R_before")):
             continue
         after, before = refined["d_R"], refined["d_R_before"]
         which = f"seed {refined['seeds'][0]}'s " if len(runs) > 1 and len(refined.get("seeds") or ()) == 1 else ""
