@@ -3,6 +3,7 @@ of them (the factories ``tiny_collection`` and ``toy_collection``), and the quic
 per session through the data cache."""
 
 import json
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -181,6 +182,48 @@ def tiny_collection():
 def toy_collection():
     """The factory of toy collections with subjects and motions, ``toy_collection(seed=0, n_subjects=4, ...)``."""
     return _toy_collection
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="session")
+def free_port():
+    """``free_port()``: a TCP port on 127.0.0.1 that no process listens on now (the OS picks it)."""
+    return _free_port
+
+
+class _Unrendered:
+    """In place of a pyvista plotter (:func:`recorded_figures`): its screenshot writes a stand-in file."""
+
+    def screenshot(self, path):
+        Path(path).write_bytes(b"png")
+
+    def close(self):
+        pass
+
+
+@pytest.fixture
+def recorded_figures(monkeypatch):
+    """``recorded_figures(*names)``: the figure functions ``names`` of :mod:`opnet.plotting` recorded instead of
+    rendered (seconds a figure on a CPU); returns name → the list of each call's ``(args, kwargs)``, and the plotter
+    each call returns writes a stand-in PNG. tests/test_plotting.py renders them."""
+
+    def record(*names):
+        calls = {name: [] for name in names}
+        for name in names:
+
+            def fake(*args, _calls=calls[name], **kwargs):
+                _calls.append((args, kwargs))
+                return _Unrendered()
+
+            monkeypatch.setattr(f"opnet.plotting.{name}", fake)
+        return calls
+
+    return record
 
 
 def _run_cli(*args, env=None, **kw) -> subprocess.CompletedProcess:

@@ -137,7 +137,7 @@ def test_in_between_poses_follow_the_clip_and_slerp_the_turns(quick):
         interpolate_controls(quick, c0, c[other], [0.5])
 
 
-def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, root, tmp_path):
+def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, root, tmp_path, recorded_figures):
     from opnet.__main__ import _parser
     from opnet.reproduce import Budget, default_out, reproduce
 
@@ -156,6 +156,7 @@ def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, r
     with pytest.raises(ValueError, match="humans"):  # a profile the reproduction does not offer
         reproduce("quick", tmp_path, collection="heads")
     tiny = Budget(epochs=1, ablation_epochs=1, pointnet_epochs=1, analogies=3, paths=2, apps_refine_shapes=2)
+    drawn = recorded_figures("plot_interpolations", "plot_analogies")  # tests/test_plotting.py renders them
     rows = reproduce(
         "quick",
         tmp_path,
@@ -176,6 +177,8 @@ def test_reproduce_runs_on_the_animals_without_the_papers_human_numbers(quick, r
     assert "paper d_R" not in md and "target ≥ 10" not in md and "DFAUST" not in md
     assert (tmp_path / "figures" / "analogy_body.png").is_file()
     assert opnet.plotting.side_view(quick) == "zy"  # the figures show the animals (y up) from the side
+    cameras = [options["camera"] for calls in drawn.values() for _, options in calls]
+    assert len(cameras) == 4 and set(cameras) == {"zy"}  # pose and body, interpolations and analogies
 
 
 def test_the_species_registered_in_processes_equal_one_registered_here(quick):

@@ -26,7 +26,6 @@ import io
 import json
 import os
 import secrets
-import socket
 import subprocess
 import sys
 import threading
@@ -60,12 +59,6 @@ if not CHROMIUM.is_file():
     pytest.skip(
         f"needs Chromium at {CHROMIUM}: apt-get install chromium (.ci/run installs it)", allow_module_level=True
     )
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @pytest.fixture(scope="module")
@@ -191,7 +184,7 @@ def test_the_lab_copy_holds_the_explorers_and_what_they_read():
 
 
 @pytest.fixture(scope="module")
-def lab(tmp_path_factory, humans, quick_collection):
+def lab(tmp_path_factory, humans, quick_collection, free_port):
     """``(url, home)``: JupyterLab serving a folder with the slice of notebook 05 (outputs cleared); stopped afterwards.
     The quick humans and animals are in the data cache first (the fixtures), as notebook 02 leaves them.
     """

@@ -248,33 +248,30 @@ def test_user_folder_oddities(tmp_path):
         opnet.data.load_folder(folder, k=10, progress=False)
 
 
+def _generator_of(coll, built: list, started=None, release=None):
+    """A stand-in for a collection's generator: ``coll``'s arrays under the meta it is asked for, each call's preset
+    appended to ``built``; with events, it sets ``started`` and waits for ``release`` before it returns."""
+    from opnet.data import storage
+
+    fields = ("vertices", "faces", "operators", "split", "subcollection", "subject", "base_basis", "eval_subset")
+
+    def generate(preset, resolution, seed, meta, progress=None):
+        built.append(preset)
+        if started is not None:
+            started.set()
+            assert release.wait(30)
+        return storage.Collection(**{f: getattr(coll, f) for f in (*fields, "params")}, meta=dict(meta))
+
+    return generate
+
+
 def test_an_unusable_data_root_is_found_before_building(coll, tmp_path, monkeypatch):
     """A data root that is a file, inside a file, or on a full disk is refused before the (minutes long) build;
     a save that fails after the build returns the built collection with a warning instead of losing it."""
     from opnet.data import generators, storage
 
     built = []
-
-    def fake_generate(preset, resolution, seed, meta, progress=None):
-        built.append(preset)
-        return storage.Collection(
-            **{
-                f: getattr(coll, f)
-                for f in (
-                    "vertices",
-                    "faces",
-                    "operators",
-                    "split",
-                    "subcollection",
-                    "subject",
-                    "base_basis",
-                    "eval_subset",
-                    "params",
-                )
-            },
-            meta=dict(meta),
-        )
-
+    fake_generate = _generator_of(coll, built)
     monkeypatch.setitem(generators.GENERATORS, "humans", (fake_generate, ("1k",)))
     a_file = tmp_path / "a_file"
     a_file.write_text("not a folder")
@@ -492,3 +489,33 @@ def test_a_collection_names_its_channels(coll):
         ("area",),
     )
     assert positional.channels == ("area",)
+
+
+def test_a_second_loader_waits_for_the_builder_and_reads_its_collection(coll, tmp_path, monkeypatch):
+    """Two loaders of one collection on a cold cache (two test workers, a notebook beside a script): the second waits
+    for the first's build (a lock beside the files) and reads the saved collection instead of building it again. A
+    thread waits on the lock like another process."""
+    import threading
+
+    from opnet.data import generators
+
+    built, started, release = [], threading.Event(), threading.Event()
+    monkeypatch.setitem(generators.GENERATORS, "humans", (_generator_of(coll, built, started, release), ("1k",)))
+    got = {}
+    first = threading.Thread(
+        target=lambda: got.setdefault("first", opnet.data.load_collection("humans", "quick", tmp_path))
+    )
+    first.start()
+    assert started.wait(30)  # the first is building, holding the lock
+    second = threading.Thread(
+        target=lambda: got.setdefault("second", opnet.data.load_collection("humans", "quick", tmp_path))
+    )
+    with pytest.warns(UserWarning, match="waiting for another process.*humans collection"):
+        second.start()
+        time.sleep(0.5)  # the second is waiting now
+        release.set()
+        first.join(30)
+        second.join(30)
+    assert built == ["quick"]  # one build
+    np.testing.assert_array_equal(got["second"].vertices, got["first"].vertices)
+    assert got["second"].meta == got["first"].meta

@@ -6,7 +6,6 @@ pytest.importorskip("torch")  # the net extra: skipped by a core-only install
 
 import dataclasses
 import json
-from pathlib import Path
 
 import numpy as np
 
@@ -249,8 +248,12 @@ def test_reproduce_writes_complete_results_and_resumes(tmp_path, profile_loads, 
     assert "Geometric (A+E): evaluated on 3 of the" in md  # the subset is still told apart from the whole test set
 
 
-def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_loads):
+def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_loads, recorded_figures):
+    """The applications' rows of every method and kind, their figures' contents (recorded instead of rendered:
+    tests/test_plotting.py renders both kinds of figure), a second call that reuses the trainings and keeps the
+    refined rows."""
     profile_loads("humans", humans)
+    drawn = recorded_figures("plot_interpolations", "plot_analogies")  # what each figure draws
     budget = reproduce.Budget(
         epochs=1,
         ablation_epochs=1,
@@ -290,7 +293,14 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_lo
     md = (tmp_path / "results.md").read_text()
     assert "## Applications" in md and "PointNet AE / OperatorNet" in md and "smoothness" in md
     for name in ("interpolation_pose", "interpolation_body", "analogy_pose", "analogy_body", "analogy_gender"):
-        assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
+        assert (tmp_path / "figures" / f"{name}.png").is_file()
+    assert len(drawn["plot_interpolations"]) == 2 and len(drawn["plot_analogies"]) == 3  # pose, body (, gender)
+    for (paths, faces, t), options in drawn["plot_interpolations"]:  # every method on one path, beside the truth
+        assert list(paths) == names and options["truth"].shape == (len(t), *humans.vertices.shape[1:])
+        assert all(p.shape == options["truth"].shape for p in paths.values())
+    for (A, B, C, results, faces), options in drawn["plot_analogies"]:  # every method on the first three questions
+        assert len(A) == len(B) == len(C) == len(options["truth"]) == 3 and list(results) == names
+        assert all(x.shape == A.shape for x in results.values())
     assert all(np.isfinite(r["d_R_before"]) for r in ana if "refinement" in r["method"])
     latest = pointnet / "latest.pt"
     mtime = latest.stat().st_mtime
@@ -359,7 +369,9 @@ def test_reproduce_with_seeds_gives_the_applications_intervals_and_judges_their_
     assert apps_of(again) == apps_of(rows)
 
 
-def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_loads, tiny_collection, monkeypatch):
+def test_reproduce_comp_and_discretisation_rows(
+    humans, root, tmp_path, profile_loads, tiny_collection, monkeypatch, recorded_figures
+):
     """Table 1's Comp networks train on operators through computed maps; test shapes on 2k and 5k meshes are decoded
     by them and by Table 1's, beside the exact 1k operators of the same shapes."""
     few = humans.subset(np.concatenate([humans.indices(s)[::16] for s in opnet.data.SPLITS]))  # 3 test shapes
@@ -437,24 +449,14 @@ def test_reproduce_comp_and_discretisation_rows(humans, root, tmp_path, profile_
     # FuncChar's geometric reconstruction of the 5k inputs (the paper's appendix), its channels through their own maps
     fields = {"one": dict(entry="int+ext", **plan["int+ext"].run_fields())}
     few_steps = dataclasses.replace(budget, refine_steps=3)
-    drawn = {}  # the figure's reconstructions, by name (recorded instead of rendered)
-
-    class Plotter:
-        def screenshot(self, path):
-            Path(path).write_bytes(b"png")
-
-        def close(self):
-            pass
-
-    def record(maps, reconstructions, truth, **options):
-        drawn.update(reconstructions, truth=truth)
-        return Plotter()
-
-    monkeypatch.setattr(opnet.plotting, "plot_mapped_reconstructions", record)
+    figure = recorded_figures("plot_mapped_reconstructions")["plot_mapped_reconstructions"]
+    monkeypatch.setattr("opnet.matching.compute_map", lambda *args, **kwargs: None)  # the maps it draws: not drawn
     with_fc = reproduce.discretisation_rows(
         few, {"one": runs[0].net}, few_steps, fields=fields, comp=comp, data_root=str(data), funcchar=True,
         out=tmp_path / "fc",
     )  # fmt: skip
+    (((_, drawn, truth), _),) = figure  # one figure: its maps, reconstructions (name -> shapes) and true shapes
+    drawn = dict(drawn, truth=truth)
     assert set(drawn) == {"one", "FuncChar (Int+Ext)", "truth"}  # FuncChar's reconstruction beside the network's
     assert drawn["FuncChar (Int+Ext)"].shape == drawn["truth"].shape and np.isfinite(drawn["FuncChar (Int+Ext)"]).all()
     assert not np.allclose(drawn["FuncChar (Int+Ext)"], drawn["one"])

@@ -139,6 +139,45 @@ def test_error_renders_share_one_range_in_mm_with_a_colour_bar():
         plotter.close()
 
 
+def test_application_figures_render_every_method_beside_the_truth_with_one_error_bar(tmp_path):
+    """The interpolation strips (a row per method under the true path, evenly spaced columns) and the analogy grids
+    (a row per question: A, B, C, the true X, each method), rendered off screen to PNG: one colour bar in mm whose
+    range every coloured panel shares, and a picture that is not blank."""
+    pv = pytest.importorskip("pyvista")
+    from PIL import Image
+
+    from opnet.data import toy
+
+    plotting.use_static_backend()
+    base = toy.capsule("quick")
+    t = np.linspace(0, 1, 5)
+    truth = np.stack([toy.bend(base.vertices, angle=0.6 * x) for x in t]) * 0.5  # metres
+    methods = {"near": truth + 0.003 * np.sin(truth), "far": truth[::-1]}
+    A, B, C = truth[:2], truth[1:3], truth[2:4]
+    figures = {
+        "interpolation": (plotting.plot_interpolations(methods, base.faces, t, truth=truth, columns=3), 3 * 3),
+        "analogy": (
+            plotting.plot_analogies(A, B, C, {n: x[:2] for n, x in methods.items()}, base.faces, truth=B),
+            2 * 6,
+        ),
+    }
+    for name, (plotter, panels) in figures.items():
+        try:
+            assert len(plotter.renderers) == panels and list(plotter.scalar_bars.keys()) == ["error (mm)"]
+            ranges = {
+                a.mapper.scalar_range
+                for r in plotter.renderers
+                for a in r.actors.values()
+                if isinstance(a, pv.Actor) and a.mapper.scalar_visibility
+            }
+            assert len(ranges) == 1 and min(ranges)[0] == 0 < min(ranges)[1]  # the methods' panels share one range
+            plotter.screenshot(str(tmp_path / f"{name}.png"))
+        finally:
+            plotter.close()
+        pixels = np.asarray(Image.open(tmp_path / f"{name}.png").convert("L"))
+        assert pixels.shape[1] > pixels.shape[0] / 3 and pixels.std() > 5, name  # shapes drawn on the white ground
+
+
 def test_training_curves_draw_every_seed_of_a_network_in_one_colour():
     def history(scale):
         return [dict(epoch=e, train_loss=scale / e, val_d_R=2 * scale / e) for e in range(1, 4)]

@@ -475,7 +475,7 @@ def test_cli_train_and_evaluate_on_a_saved_collection(coll, tmp_path, cli):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("options", [[], ["--operator-noise", "0.5"]])
-def test_ddp_with_two_processes_matches_one_process(coll, tmp_path, cli, options):
+def test_ddp_with_two_processes_matches_one_process(coll, tmp_path, cli, free_port, options):
     """torchrun --nproc_per_node 2 (gloo) gives the single-process result with the same global batch (with operator
     noise too: the ranks split the global batch's noise).
     """
@@ -492,7 +492,7 @@ def test_ddp_with_two_processes_matches_one_process(coll, tmp_path, cli, options
             "--nproc_per_node",
             "2",
             "--master_port",
-            str(29500 + os.getpid() % 1000),
+            str(free_port()),  # one the OS says is free now, not one derived from the PID (it may be taken)
             "-m",
             "opnet",
             "train",

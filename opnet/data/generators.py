@@ -17,6 +17,7 @@ from typing import Callable
 import numpy as np
 
 from .._deprecation import renamed_keyword
+from .._files import build_lock
 from . import animals, hands, heads, humans
 from .build import assemble
 from .splits import make_splits
@@ -422,7 +423,8 @@ def load_collection(
     laptop CPU) or ``"paper"`` (≈17 000 training shapes like the paper's). ``resolution`` (humans only) picks
     the ``"1k"`` (default), ``"2k"`` or ``"5k"``-vertex version of the same shapes. A cached file is reused when
     its parameters match; a corrupt or mismatched one raises :class:`~opnet.data.CollectionError` naming the fix
-    (``rebuild=True``).
+    (``rebuild=True``). One process builds a collection at a time: another that asks for it meanwhile waits (a lock
+    file beside it, released by the OS if the builder dies) and reads what the first saved.
 
     ``channels``: the channels wanted (names or inner products, in order; default :data:`opnet.KINDS`). The
     collection is built and stored with the paper's three; others are added by :meth:`Collection.with_channels` and
@@ -470,10 +472,15 @@ def load_collection(
         meta["builder"] = animals.builder_digest()
         extra["root"] = root
     stem = root / stem_name(meta)
-    if not rebuild and stem.with_name(stem.name + ".json").is_file():
+    manifest = stem.with_name(stem.name + ".json")
+    if not rebuild and manifest.is_file():
         coll = read_collection(stem, expected_meta=meta)
-    else:
-        check_root(root, shape_count(name, preset) * BYTES_PER_SHAPE)
-        coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress, **extra)
-        save_or_warn(coll, stem)
+    else:  # one builder at a time: a second process waits for the first, then reads what it saved
+        with build_lock(stem.with_name(f".{stem.name}.lock"), f"the {name} collection ({preset})"):
+            if not rebuild and manifest.is_file():
+                coll = read_collection(stem, expected_meta=meta)
+            else:
+                check_root(root, shape_count(name, preset) * BYTES_PER_SHAPE)
+                coll = generate(preset=preset, resolution=resolution, seed=seed, meta=meta, progress=progress, **extra)
+                save_or_warn(coll, stem)
     return coll if channels is None else coll.with_channels(channels, progress=progress)
