@@ -1,6 +1,6 @@
 """Atomic file writes, the clean-up of temporary files left by killed processes, one writer per folder (shared by
-data, training and the reproduction), one builder at a time of a cache another library writes, and file descriptor 2
-silenced for a compiled library's own prints.
+data, training and the reproduction), one builder at a time of a cache (anny's model data, opnet's collections), and
+file descriptor 2 silenced for a compiled library's own prints.
 """
 
 from __future__ import annotations
@@ -170,43 +170,76 @@ def writer_lock(folder, what: str):
 _HELD: dict = {}
 
 
+#: What ``flock`` raises where the file system keeps no locks (NFS without lockd, Lustre without ``-o flock``, some
+#: FUSE mounts): :func:`build_lock` then goes on without one.
+_NO_LOCKS = {errno.ENOLCK, errno.ENOSYS, errno.EOPNOTSUPP, errno.EINVAL}
+
+
 @contextmanager
 def build_lock(path, what: str = "it"):
     """Wait for, then hold, an exclusive lock on the file ``path`` (its folder created when missing): one process at a
-    time builds a cache whose writer is not atomic (anny's model data), so another waits and then reads the finished
-    file instead of a part of it; ``what`` names the work in the warning given when it has to wait. ``fcntl.flock``,
-    released by the OS when the holder dies. Re-entrant in one thread (a nested use holds it already); another thread
-    of the process waits like another process. No lock where ``fcntl`` is missing (Windows) or the file cannot be
-    opened at all (a read-only folder, whose cache another process cannot be writing either).
+    time builds a cache, so another waits and then reads the finished file instead of a part of it (anny's model data,
+    whose writer is not atomic) or instead of building it again (opnet's collections, minutes each); ``what`` names
+    the work in the warning given when it has to wait, with the holder's PID. ``fcntl.flock``, released by the OS
+    when the holder dies; the lock file stays (removing it would race with a process about to lock it). Re-entrant
+    in one thread (a nested use holds it already); another thread of the process waits like another process. No lock
+    where ``fcntl`` is missing (Windows), where the file cannot be opened at all (a read-only folder, whose cache
+    another process cannot be writing either) or where the file system keeps no locks (a warning says so).
     """
     fcntl = _fcntl()
     path = Path(path).absolute()
     me = threading.get_ident()
-    if fcntl is None or _HELD.get(path) == me:
+    fd = None if fcntl is None or _HELD.get(path) == me else _open_lock_file(path)
+    if fd is None:
         yield
         return
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError:
-        try:
-            fd = os.open(path, os.O_RDONLY)  # a read-only cache: flock works on it too
-        except OSError:
-            yield
-            return
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            warnings.warn(f"waiting for another process (or thread) building {what} (lock {path})", stacklevel=3)
+            holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "unknown"
+            warnings.warn(
+                f"waiting for another process (or thread) building {what} (lock {path}, held by process {holder})",
+                stacklevel=3,
+            )
             fcntl.flock(fd, fcntl.LOCK_EX)
+        except OSError as exc:
+            if exc.errno not in _NO_LOCKS:
+                raise
+            warnings.warn(f"{path.parent} keeps no file locks ({exc.strerror}): building {what} unlocked", stacklevel=3)
+            os.close(fd)
+            fd = None
+        if fd is None:
+            yield
+            return
+        try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, str(os.getpid()).encode(), 0)  # who holds it, for the warning of the next one
+        except OSError:  # a lock file opened read-only: the lock holds all the same
+            pass
         _HELD[path] = me
         try:
             yield
         finally:
             del _HELD[path]
     finally:
-        os.close(fd)  # releases the lock
+        if fd is not None:
+            os.close(fd)  # releases the lock
+
+
+def _open_lock_file(path: Path):
+    """A descriptor of the lock file ``path``, created (with its folder) when missing, or opened read-only where it
+    cannot be written (``flock`` works on it too); ``None`` where it cannot be opened at all.
+    """
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError:
+        pass
+    try:
+        return os.open(path, os.O_RDONLY)
+    except OSError:
+        return None
 
 
 def _fcntl():

@@ -210,13 +210,19 @@ class _Unrendered:
 def recorded_figures(monkeypatch):
     """``recorded_figures(*names)``: the figure functions ``names`` of :mod:`opnet.plotting` recorded instead of
     rendered (seconds a figure on a CPU); returns name → the list of each call's ``(args, kwargs)``, and the plotter
-    each call returns writes a stand-in PNG. tests/test_plotting.py renders them."""
+    each call returns writes a stand-in PNG. A call the real function would refuse (an argument it does not take, one
+    missing) fails as it would. tests/test_plotting.py renders them."""
+    import inspect
+
+    import opnet.plotting
 
     def record(*names):
         calls = {name: [] for name in names}
         for name in names:
+            signature = inspect.signature(getattr(opnet.plotting, name))
 
-            def fake(*args, _calls=calls[name], **kwargs):
+            def fake(*args, _calls=calls[name], _signature=signature, **kwargs):
+                _signature.bind(*args, **kwargs)  # TypeError where the real function would raise it
                 _calls.append((args, kwargs))
                 return _Unrendered()
 

@@ -510,12 +510,15 @@ def test_a_second_loader_waits_for_the_builder_and_reads_its_collection(coll, tm
     second = threading.Thread(
         target=lambda: got.setdefault("second", opnet.data.load_collection("humans", "quick", tmp_path))
     )
-    with pytest.warns(UserWarning, match="waiting for another process.*humans collection"):
+    with pytest.warns(UserWarning, match="waiting for another process.*humans collection") as said:
         second.start()
-        time.sleep(0.5)  # the second is waiting now
+        deadline = time.time() + 30
+        while not any("waiting for another" in str(w.message) for w in said) and time.time() < deadline:
+            time.sleep(0.01)  # until the second is waiting on the lock
         release.set()
         first.join(30)
         second.join(30)
+    assert not first.is_alive() and not second.is_alive()
     assert built == ["quick"]  # one build
     np.testing.assert_array_equal(got["second"].vertices, got["first"].vertices)
     assert got["second"].meta == got["first"].meta

@@ -297,9 +297,11 @@ def test_reproduce_applications_on_generated_humans(humans, tmp_path, profile_lo
     assert len(drawn["plot_interpolations"]) == 2 and len(drawn["plot_analogies"]) == 3  # pose, body (, gender)
     for (paths, faces, t), options in drawn["plot_interpolations"]:  # every method on one path, beside the truth
         assert list(paths) == names and options["truth"].shape == (len(t), *humans.vertices.shape[1:])
+        assert np.array_equal(faces, humans.faces) and options["camera"] == opnet.plotting.side_view(humans)
         assert all(p.shape == options["truth"].shape for p in paths.values())
     for (A, B, C, results, faces), options in drawn["plot_analogies"]:  # every method on the first three questions
         assert len(A) == len(B) == len(C) == len(options["truth"]) == 3 and list(results) == names
+        assert np.array_equal(faces, humans.faces)
         assert all(x.shape == A.shape for x in results.values())
     assert all(np.isfinite(r["d_R_before"]) for r in ana if "refinement" in r["method"])
     latest = pointnet / "latest.pt"
@@ -450,7 +452,9 @@ def test_reproduce_comp_and_discretisation_rows(
     fields = {"one": dict(entry="int+ext", **plan["int+ext"].run_fields())}
     few_steps = dataclasses.replace(budget, refine_steps=3)
     figure = recorded_figures("plot_mapped_reconstructions")["plot_mapped_reconstructions"]
-    monkeypatch.setattr("opnet.matching.compute_map", lambda *args, **kwargs: None)  # the maps it draws: not drawn
+    # the figure's maps, computed again for it, are not drawn; the rows' maps are in the data root already (a map
+    # computed here would fail on this None)
+    monkeypatch.setattr("opnet.matching.compute_map", lambda *args, **kwargs: None)
     with_fc = reproduce.discretisation_rows(
         few, {"one": runs[0].net}, few_steps, fields=fields, comp=comp, data_root=str(data), funcchar=True,
         out=tmp_path / "fc",

@@ -1,4 +1,4 @@
-"""One builder at a time of a cache that another library writes in place (anny's model data): opnet._files.build_lock
+"""One builder at a time of a cache (anny's model data, written in place; opnet's collections): opnet._files.build_lock
 and the body model's use of it; file descriptor 2 silenced around a compiled library's call (silenced_fd2)."""
 
 import os
@@ -62,6 +62,32 @@ def test_a_second_process_waits_for_the_builder_and_reads_the_whole_file(tmp_pat
     assert writer.returncode == 0 and read.returncode == 0, read.stderr
     assert read.stdout == "".join(f"piece {i}\n" for i in range(10))  # not a part of it
     assert "waiting for another process (or thread) building the test's file" in read.stderr  # it said why it waits
+    assert f"held by process {writer.pid})" in read.stderr  # and for whom
+
+
+def test_a_file_system_without_locks_builds_unlocked_with_a_warning(tmp_path, monkeypatch):
+    """Where flock fails for want of locks (NFS without lockd: ENOLCK; Lustre, some FUSE mounts), the build goes on
+    without one and says so; another error of flock is raised, not swallowed."""
+    import errno
+
+    def no_locks(fd, operation):
+        raise OSError(errno.ENOLCK, "No locks available")
+
+    monkeypatch.setattr(fcntl, "flock", no_locks)
+    ran = []
+    with pytest.warns(UserWarning, match="keeps no file locks.*building the cache unlocked"):
+        with opnet._files.build_lock(tmp_path / ".lock", "the cache"):
+            ran.append(True)
+    assert ran == [True] and not opnet._files._HELD
+
+    def broken(fd, operation):
+        raise OSError(errno.EBADF, "Bad file descriptor")
+
+    monkeypatch.setattr(fcntl, "flock", broken)
+    with pytest.raises(OSError, match="Bad file descriptor"):
+        with opnet._files.build_lock(tmp_path / ".lock", "the cache"):
+            ran.append(False)
+    assert ran == [True]
 
 
 def test_a_killed_builder_leaves_no_lock_and_one_thread_may_nest_it(tmp_path):

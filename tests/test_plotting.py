@@ -170,12 +170,13 @@ def test_application_figures_render_every_method_beside_the_truth_with_one_error
                 for a in r.actors.values()
                 if isinstance(a, pv.Actor) and a.mapper.scalar_visibility
             }
-            assert len(ranges) == 1 and min(ranges)[0] == 0 < min(ranges)[1]  # the methods' panels share one range
+            (low, high) = ranges.pop()
+            assert not ranges and low == 0 and high > 1  # the methods' panels share one range, in mm (not metres)
             plotter.screenshot(str(tmp_path / f"{name}.png"))
         finally:
             plotter.close()
         pixels = np.asarray(Image.open(tmp_path / f"{name}.png").convert("L"))
-        assert pixels.shape[1] > pixels.shape[0] / 3 and pixels.std() > 5, name  # shapes drawn on the white ground
+        assert (pixels < 250).mean() > 0.1, name  # shapes drawn on the white ground (titles and bar alone: < 0.01)
 
 
 def test_training_curves_draw_every_seed_of_a_network_in_one_colour():

@@ -424,7 +424,8 @@ def load_collection(
     the ``"1k"`` (default), ``"2k"`` or ``"5k"``-vertex version of the same shapes. A cached file is reused when
     its parameters match; a corrupt or mismatched one raises :class:`~opnet.data.CollectionError` naming the fix
     (``rebuild=True``). One process builds a collection at a time: another that asks for it meanwhile waits (a lock
-    file beside it, released by the OS if the builder dies) and reads what the first saved.
+    file beside it, released by the OS if the builder dies; none on Windows, in a read-only root or on a file system
+    without locks) and reads what the first saved.
 
     ``channels``: the channels wanted (names or inner products, in order; default :data:`opnet.KINDS`). The
     collection is built and stored with the paper's three; others are added by :meth:`Collection.with_channels` and
