@@ -507,7 +507,8 @@ def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules,
     stale = tmp_path / "two" / ".joblib" / "joblib_memmapping_folder_1_killed"  # what a SIGKILLed call leaves
     stale.mkdir(parents=True)
     (stale / "operators.pkl").write_bytes(b"x" * 1000)
-    again = reproduce.reproduce("quick", tmp_path / "two", jobs=2, **options)
+    with pytest.warns(UserWarning, match="not their runs. current ones"):  # the deleted training's rows
+        again = reproduce.reproduce("quick", tmp_path / "two", jobs=2, **options)
     assert torch.get_num_threads() == threads
     assert (tmp_path / "two" / ".joblib").is_dir() and not stale.exists()  # joblib's maps on disk, old ones deleted
     assert sorted(map(key, again)) == sorted(map(key, two))
