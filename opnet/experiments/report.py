@@ -34,6 +34,7 @@ __all__ = [
     "MAPPED_GROUPS",
     "write_results",
     "merge_results",
+    "in_plan_order",
     "row_identity",
     "results_markdown",
     "results_sections",
@@ -217,19 +218,42 @@ SHAPE_DIGITS = 7
 def write_results(out: Path, rows: list[dict], context: dict, seconds: float) -> list[dict]:
     """Write ``out/results.json`` (the rows and ``context`` with ``wall_seconds`` = ``seconds``: all that
     :func:`results_markdown` needs) and ``out/results.md`` (that Markdown, of the rows as written), each atomically;
-    returns the rows as written (what :func:`read_results` gives back).
+    returns the rows as written (what :func:`read_results` gives back), in the plan's order
+    (:func:`~opnet.experiments.report.in_plan_order`).
 
     The per-shape errors (``<metric>_shapes``, per seed and shape: what the intervals and the claims' paired
     comparisons read) keep :data:`SHAPE_DIGITS` significant digits; they and the shapes' indices are written a list
     to a line; the rest as it is.
     """
     context = dict(context, wall_seconds=round(seconds, 1))
-    rows = [{k: _rounded(v) if k.endswith("_shapes") else v for k, v in r.items()} for r in rows]
+    rows = in_plan_order(
+        [{k: _rounded(v) if k.endswith("_shapes") else v for k, v in r.items()} for r in rows], context
+    )
     data = dict(format=RESULTS_FORMAT, version=RESULTS_VERSION, context=context, rows=rows)
     atomic_write(out / "results.json", lambda f: f.write(_results_json(data).encode()))
     md = results_markdown(rows, context)
     atomic_write(out / "results.md", lambda f: f.write(md.encode()))
     return rows
+
+
+def in_plan_order(rows: list[dict], context: dict | None) -> list[dict]:
+    """``rows`` with each table's rows in the order of their entries in the reproduction's plan (``context["plan"]``,
+    the entries' keys), so that a row measured by a later call (``reproduce --points`` after the rest) stands beside
+    its neighbours of the plan, not at the end. The sort is stable: an entry's rows keep their order, and a row of no
+    entry of the plan (an application's ground truth, say) stays behind the row before it of its table; the tables
+    keep the order in which they first appear. Without a plan (a file of before it was recorded) the rows are
+    returned as they are.
+    """
+    place = {key: i for i, key in enumerate((context or {}).get("plan") or ())}
+    if not place:
+        return list(rows)
+    tables, last, keys = {}, {}, []
+    for n, row in enumerate(rows):
+        table = row.get("table")
+        rank = tables.setdefault(table, len(tables))
+        last[table] = place.get(row.get("entry"), last.get(table, -1))
+        keys.append((rank, last[table], n))
+    return [rows[n] for *_, n in sorted(keys)]
 
 
 def _rounded(value):
@@ -324,8 +348,9 @@ def _shapes(context: dict) -> str:
 
 
 def read_results(path) -> tuple[list[dict], dict | None]:
-    """The rows of a ``results.json`` (:func:`~opnet.experiments.report.upgrade_rows`: an older file's get their
-    structured fields) and its context (``None`` for a file of before version 2, which held the rows alone).
+    """The rows of a ``results.json`` in the plan's order (:func:`~opnet.experiments.report.in_plan_order`;
+    :func:`~opnet.experiments.report.upgrade_rows`: an older file's get their structured fields) and its context
+    (``None`` for a file of before version 2, which held the rows alone).
 
     Parameters
     ----------
@@ -339,7 +364,7 @@ def read_results(path) -> tuple[list[dict], dict | None]:
         return upgrade_rows(data), None
     if data.get("format") != RESULTS_FORMAT:
         raise ValueError(f"{path} is not a results.json that opnet's reproduce wrote (no format {RESULTS_FORMAT!r}).")
-    return upgrade_rows(data["rows"]), data["context"]
+    return in_plan_order(upgrade_rows(data["rows"]), data["context"]), data["context"]
 
 
 def _encoder(depth: int) -> str:
@@ -440,6 +465,25 @@ def provenance_markdown(rows: list[dict]) -> list[str]:
     return lines
 
 
+def _earlier_lines(earlier: list[dict]) -> list[str]:
+    """A line per kind of earlier call (:func:`merge_results`' ``context["earlier"]``): calls that kept the same tables
+    on the same date and machine (a run stopped and resumed) share one line, with each call's wall time.
+    """
+    groups: dict[tuple, list] = {}
+    for e in earlier:
+        groups.setdefault((tuple(e["tables"]), e.get("date"), e.get("machine", "?")), []).append(e.get("wall_seconds"))
+    lines = []
+    for (tables, date, machine), walls in groups.items():
+        known = ", ".join(f"{w:.0f}" for w in walls if w is not None)
+        calls = "an earlier call" if len(walls) == 1 else f"{len(walls)} earlier calls"
+        wall = f", wall time{'' if len(walls) == 1 else 's'} {known} s" if known else ""
+        lines.append(
+            f"Rows kept from {calls} in the same folder (finished runs reused): the tables {', '.join(tables)}, "
+            f"measured{' on ' + date if date else ''} on {machine}{wall}."
+        )
+    return lines
+
+
 def context_markdown(context: dict) -> list[str]:
     """What a reproduction ran on (lines): the machine, the wall time, the data and the training settings."""
     b = context["budget"]
@@ -448,12 +492,7 @@ def context_markdown(context: dict) -> list[str]:
         f"Machine: {context['machine']}{when}. Wall time so far: {context['wall_seconds']:.0f} s "
         "(data, training, evaluation; finished runs are reused, so a resumed call counts only what it did).",
         "",
-        *[
-            f"Rows kept from an earlier call in the same folder (its finished runs reused): the tables "
-            f"{', '.join(e['tables'])}, measured{' on ' + e['date'] if 'date' in e else ''} on {e.get('machine', '?')}"
-            f"{', wall time {:.0f} s'.format(e['wall_seconds']) if 'wall_seconds' in e else ''}."
-            for e in context.get("earlier", [])
-        ],
+        *_earlier_lines(context.get("earlier", [])),
         *([""] if context.get("earlier") else []),
         f"Data: {context['collection']}; the furthest-point evaluation subset (the paper's 50 shapes: 5 per held-out "
         f"sequence) has {context['eval_subset']} shapes.",
