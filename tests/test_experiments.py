@@ -507,7 +507,7 @@ def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules,
     stale = tmp_path / "two" / ".joblib" / "joblib_memmapping_folder_1_killed"  # what a SIGKILLed call leaves
     stale.mkdir(parents=True)
     (stale / "operators.pkl").write_bytes(b"x" * 1000)
-    with pytest.warns(UserWarning, match="not their runs. current ones"):  # the deleted training's rows
+    with pytest.warns(UserWarning, match="current ones"):  # the deleted training's rows
         again = reproduce.reproduce("quick", tmp_path / "two", jobs=2, **options)
     assert torch.get_num_threads() == threads
     assert (tmp_path / "two" / ".joblib").is_dir() and not stale.exists()  # joblib's maps on disk, old ones deleted
@@ -724,46 +724,48 @@ def test_the_provenance_line_gives_the_dates_machine_and_budget_of_old_and_new_f
     assert report.headline_markdown(rows, new)[-1] == report.provenance_text(new)
 
 
-def test_a_run_stopped_and_resumed_lists_its_earlier_calls_on_one_line():
-    call = dict(tables=["table1", "analogy"], date="2026-12-06", machine="CPU")
-    other = dict(call, date="2026-12-05", wall_seconds=7.0)
-    earlier = [dict(call, wall_seconds=10445.0), dict(call, wall_seconds=86.4), other, dict(call)]
+def test_a_run_stopped_and_resumed_lists_its_neighbouring_earlier_calls_on_one_line():
     from opnet.experiments import shipped
 
+    call = dict(tables=["table1", "analogy"], date="2026-12-06", machine="CPU")
+    other = dict(call, date="2026-12-05", wall_seconds=7.0)
+    earlier = [other, dict(call, wall_seconds=10445.0), dict(call, wall_seconds=86.4), dict(call), dict(other)]
     context = dict(shipped.shipped_results("default")[1], earlier=earlier)
     lines = [line for line in report.context_markdown(context) if line.startswith("Rows kept")]
-    assert lines == [
-        "Rows kept from 3 earlier calls in the same folder (finished runs reused): the tables table1, analogy, "
-        "measured on 2026-12-06 on CPU, wall times 10445, 86 s.",
-        "Rows kept from an earlier call in the same folder (finished runs reused): the tables table1, analogy, "
-        "measured on 2026-12-05 on CPU, wall time 7 s.",
+    start = "Rows kept from {} in the same folder (finished runs reused): the tables table1, analogy, measured on "
+    assert lines == [  # oldest first; only neighbours share a line
+        start.format("an earlier call") + "2026-12-05 on CPU, wall time 7 s.",
+        start.format("3 earlier calls") + "2026-12-06 on CPU, wall times 10445, 86 s (1 not recorded).",
+        start.format("an earlier call") + "2026-12-05 on CPU, wall time 7 s.",
     ]
 
 
-def test_rows_measured_by_a_later_call_are_written_and_read_beside_their_plan_neighbours(tmp_path, monkeypatch):
-    """``reproduce --points`` after the rest: its Table 1 rows stand after the PointNet AE's, not at the end of the
-    file; an entry's rows keep their order, a row of no entry (the applications' truth) stays behind the row before
-    it."""
-    keys = plan.declare(plan.BUDGETS["quick"]).keys()
-    assert keys.index("pointnet") < keys.index("pointnet-stn") < keys.index("nn")
-    context = dict(preset="quick", budget={}, splits={}, collection="c", plan=keys)
-    row = lambda table, entry, split: dict(table=table, entry=entry, method=str(entry), split=split)  # noqa: E731
-    earlier = [row("table1", e, s) for e in ("int+ext", "pointnet", "nn") for s in ("test", "test_subjects")]
-    earlier += [row("interpolation", None, "truth"), row("interpolation", "pointnet", "pose")]
-    later = [row("table1", "pointnet-stn", s) for s in ("test", "test_subjects")]
-    rows, merged_context = report.merge_results((earlier, dict(context)), later, context)
-    assert rows[-1]["entry"] == "pointnet-stn"  # merged: new rows come last
-    monkeypatch.setattr(report, "results_markdown", lambda rows, context: "")  # these rows hold no measurements
-    written = report.write_results(tmp_path, rows, merged_context, 1.0)
-    want = [("table1", e, s) for e in ("int+ext", "pointnet", "pointnet-stn", "nn") for s in ("test", "test_subjects")]
-    want += [("interpolation", None, "truth"), ("interpolation", "pointnet", "pose")]
-    got = lambda rs: [(r["table"], r["entry"], r["split"]) for r in rs]  # noqa: E731
-    assert got(written) == want and got(report.read_results(tmp_path)[0]) == want
-    # a file written in the order measured (before this order was kept) reads in the plan's order too
-    data = json.loads((tmp_path / "results.json").read_text())
-    (tmp_path / "results.json").write_text(json.dumps(dict(data, rows=rows)))
-    assert got(report.read_results(tmp_path)[0]) == want
-    assert report.in_plan_order(rows, dict(context, plan=None)) == rows  # no plan recorded: as they are
+def _rows_of(rows: list[dict]) -> list[tuple]:
+    return [(r["table"], r.get("kind"), r["entry"], r.get("split")) for r in rows]
+
+
+def test_merged_rows_follow_this_calls_order_and_keep_the_others_behind_their_neighbours():
+    """A file written in the order measured (``reproduce --points`` after the rest: the transformer's PointNet at the
+    end) is merged into this call's order, its rows beside their plan neighbours; a part this call left out (the
+    ablation) keeps its place behind the row before it; the applications' rows take this call's order, the truth
+    row of each kind first."""
+    context = dict(preset="quick", budget={}, splits={}, collection="c")
+
+    def row(table, entry, split=None, kind=None):
+        return dict(table=table, entry=entry, method=str(entry), split=split, kind=kind)
+
+    table1 = [row("table1", e, s) for e in ("int+ext", "pointnet", "pointnet-stn", "nn") for s in ("test", "other")]
+    apps = [row("interpolation", e, kind=k) for k in ("pose", "body") for e in (None, "pointnet", "pointnet-stn")]
+    ablation = [row("ablation", "ablation-A-d1", "test")]
+    old = [r for r in table1 if r["entry"] != "pointnet-stn"] + [r for r in apps if r["entry"] != "pointnet-stn"]
+    old += ablation + [r for r in table1 if r["entry"] == "pointnet-stn"]  # the order in which they were measured
+    rows, merged = report.merge_results((old, dict(context, date="2026-12-06")), table1 + apps, context)
+    assert _rows_of(rows) == _rows_of(table1 + apps + ablation)
+    assert merged["earlier"][-1]["tables"] == ["ablation"]
+    partial = table1[:4] + table1[6:]  # while the later entries are still measured: nothing lost, none twice
+    rows, _ = report.merge_results((old, dict(context)), partial, context)
+    assert sorted(_rows_of(rows), key=str) == sorted(_rows_of(old), key=str)
+    assert _rows_of(rows)[:6] == _rows_of(table1[:4] + table1[6:])
 
 
 def test_results_json_keeps_per_shape_errors_to_seven_digits_on_one_line_each(tmp_path):

@@ -34,7 +34,6 @@ __all__ = [
     "MAPPED_GROUPS",
     "write_results",
     "merge_results",
-    "in_plan_order",
     "row_identity",
     "results_markdown",
     "results_sections",
@@ -218,42 +217,19 @@ SHAPE_DIGITS = 7
 def write_results(out: Path, rows: list[dict], context: dict, seconds: float) -> list[dict]:
     """Write ``out/results.json`` (the rows and ``context`` with ``wall_seconds`` = ``seconds``: all that
     :func:`results_markdown` needs) and ``out/results.md`` (that Markdown, of the rows as written), each atomically;
-    returns the rows as written (what :func:`read_results` gives back), in the plan's order
-    (:func:`~opnet.experiments.report.in_plan_order`).
+    returns the rows as written (what :func:`read_results` gives back).
 
     The per-shape errors (``<metric>_shapes``, per seed and shape: what the intervals and the claims' paired
     comparisons read) keep :data:`SHAPE_DIGITS` significant digits; they and the shapes' indices are written a list
     to a line; the rest as it is.
     """
     context = dict(context, wall_seconds=round(seconds, 1))
-    rows = in_plan_order(
-        [{k: _rounded(v) if k.endswith("_shapes") else v for k, v in r.items()} for r in rows], context
-    )
+    rows = [{k: _rounded(v) if k.endswith("_shapes") else v for k, v in r.items()} for r in rows]
     data = dict(format=RESULTS_FORMAT, version=RESULTS_VERSION, context=context, rows=rows)
     atomic_write(out / "results.json", lambda f: f.write(_results_json(data).encode()))
     md = results_markdown(rows, context)
     atomic_write(out / "results.md", lambda f: f.write(md.encode()))
     return rows
-
-
-def in_plan_order(rows: list[dict], context: dict | None) -> list[dict]:
-    """``rows`` with each table's rows in the order of their entries in the reproduction's plan (``context["plan"]``,
-    the entries' keys), so that a row measured by a later call (``reproduce --points`` after the rest) stands beside
-    its neighbours of the plan, not at the end. The sort is stable: an entry's rows keep their order, and a row of no
-    entry of the plan (an application's ground truth, say) stays behind the row before it of its table; the tables
-    keep the order in which they first appear. Without a plan (a file of before it was recorded) the rows are
-    returned as they are.
-    """
-    place = {key: i for i, key in enumerate((context or {}).get("plan") or ())}
-    if not place:
-        return list(rows)
-    tables, last, keys = {}, {}, []
-    for n, row in enumerate(rows):
-        table = row.get("table")
-        rank = tables.setdefault(table, len(tables))
-        last[table] = place.get(row.get("entry"), last.get(table, -1))
-        keys.append((rank, last[table], n))
-    return [rows[n] for *_, n in sorted(keys)]
 
 
 def _rounded(value):
@@ -303,9 +279,12 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
     """The rows and context that a call of ``reproduce`` writes into a folder that already holds results.
 
     ``earlier``: the folder's ``(rows, context)`` (:func:`read_results`), or ``None``. Its rows that this call did not
-    measure again (their :func:`row_identity` is not among ``rows``) are kept, in their place (a re-measured row
-    takes its old one's place, new ones come last), so that a call with fewer parts (``--no-ablation``,
-    ``--no-maps`` ...) adds to the folder's results instead of losing them; ``context`` then lists under
+    measure again (their :func:`row_identity` is not among ``rows``) are kept, so that a call with fewer parts
+    (``--no-ablation``, ``--no-maps`` ...) adds to the folder's results instead of losing them. The order is this
+    call's (``rows``: the plan's entries, then its steps), each kept row behind the row before it in the old file (and
+    behind the rows new to the file that this call has after that one): a row that a later call adds (``reproduce
+    --points`` after the rest) stands beside its plan neighbours, not at the end, and a file that an older version
+    wrote in the order measured is put in order. ``context`` then lists under
     ``"earlier"`` the earlier call (its date, machine, wall time and the tables of the rows kept) and the calls it
     listed itself: a chain of calls is listed whole, without telling which of them measured each kept row.
     Results of another preset, budget, collection or number of seeds are not merged (a warning says so): ``(rows,
@@ -325,12 +304,18 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
             stacklevel=2,
         )
         return rows, context
-    new = {row_identity(r): r for r in rows}
+    merged, ids = list(rows), [row_identity(r) for r in rows]
     old_ids = [row_identity(r) for r in old_rows]
-    merged = [new.get(i, r) for i, r in zip(old_ids, old_rows)]  # re-measured rows replace theirs, in place
-    kept = [r for i, r in zip(old_ids, old_rows) if i not in new]
-    seen = set(old_ids)
-    merged += [r for i, r in new.items() if i not in seen]  # this call's new rows, in its order
+    measured, known, kept, before = set(ids), set(old_ids), [], None
+    for i, r in zip(old_ids, old_rows):
+        if i not in measured:  # kept, behind the row before it in the old file and this call's new rows after that
+            at = ids.index(before) + 1 if before is not None else 0
+            while at < len(ids) and ids[at] not in known:
+                at += 1
+            merged.insert(at, r)
+            ids.insert(at, i)
+            kept.append(r)
+        before = i
     if not kept:
         return merged, context
     summary = {key: old[key] for key in ("date", "machine", "wall_seconds") if key in old}
@@ -348,9 +333,8 @@ def _shapes(context: dict) -> str:
 
 
 def read_results(path) -> tuple[list[dict], dict | None]:
-    """The rows of a ``results.json`` in the plan's order (:func:`~opnet.experiments.report.in_plan_order`;
-    :func:`~opnet.experiments.report.upgrade_rows`: an older file's get their structured fields) and its context
-    (``None`` for a file of before version 2, which held the rows alone).
+    """The rows of a ``results.json`` (:func:`~opnet.experiments.report.upgrade_rows`: an older file's get their
+    structured fields) and its context (``None`` for a file of before version 2, which held the rows alone).
 
     Parameters
     ----------
@@ -364,7 +348,7 @@ def read_results(path) -> tuple[list[dict], dict | None]:
         return upgrade_rows(data), None
     if data.get("format") != RESULTS_FORMAT:
         raise ValueError(f"{path} is not a results.json that opnet's reproduce wrote (no format {RESULTS_FORMAT!r}).")
-    return in_plan_order(upgrade_rows(data["rows"]), data["context"]), data["context"]
+    return upgrade_rows(data["rows"]), data["context"]
 
 
 def _encoder(depth: int) -> str:
@@ -466,17 +450,24 @@ def provenance_markdown(rows: list[dict]) -> list[str]:
 
 
 def _earlier_lines(earlier: list[dict]) -> list[str]:
-    """A line per kind of earlier call (:func:`merge_results`' ``context["earlier"]``): calls that kept the same tables
-    on the same date and machine (a run stopped and resumed) share one line, with each call's wall time.
+    """A line per earlier call (:func:`merge_results`' ``context["earlier"]``, oldest first), except that neighbouring
+    calls that kept the same tables on the same date and machine (a run stopped and resumed) share one, with each
+    call's wall time where it was recorded.
     """
-    groups: dict[tuple, list] = {}
+    groups: list[tuple[tuple, list]] = []
     for e in earlier:
-        groups.setdefault((tuple(e["tables"]), e.get("date"), e.get("machine", "?")), []).append(e.get("wall_seconds"))
+        key = (tuple(e["tables"]), e.get("date"), e.get("machine", "?"))
+        if groups and groups[-1][0] == key:
+            groups[-1][1].append(e.get("wall_seconds"))
+        else:
+            groups.append((key, [e.get("wall_seconds")]))
     lines = []
-    for (tables, date, machine), walls in groups.items():
-        known = ", ".join(f"{w:.0f}" for w in walls if w is not None)
+    for (tables, date, machine), walls in groups:
+        known = [f"{w:.0f}" for w in walls if w is not None]
+        wall = f", wall time{'s' if len(known) > 1 else ''} {', '.join(known)} s" if known else ""
+        if known and len(known) < len(walls):
+            wall += f" ({len(walls) - len(known)} not recorded)"
         calls = "an earlier call" if len(walls) == 1 else f"{len(walls)} earlier calls"
-        wall = f", wall time{'' if len(walls) == 1 else 's'} {known} s" if known else ""
         lines.append(
             f"Rows kept from {calls} in the same folder (finished runs reused): the tables {', '.join(tables)}, "
             f"measured{' on ' + date if date else ''} on {machine}{wall}."
