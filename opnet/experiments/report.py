@@ -283,8 +283,9 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
     (``--no-ablation``, ``--no-maps`` ...) adds to the folder's results instead of losing them. The order is this
     call's (``rows``: the plan's entries, then its steps), each kept row behind the row before it in the old file (and
     behind the rows new to the file that this call has after that one): a row that a later call adds (``reproduce
-    --points`` after the rest) stands beside its plan neighbours, not at the end, and a file that an older version
-    wrote in the order measured is put in order. ``context`` then lists under
+    --points`` after the rest) stands beside its plan neighbours, not at the end, and a call that measures or keeps
+    every row of a file that an older version wrote in the order measured puts it in order (until then, its rows not
+    yet reached keep the file's order). ``context`` then lists under
     ``"earlier"`` the earlier call (its date, machine, wall time and the tables of the rows kept) and the calls it
     listed itself: a chain of calls is listed whole, without telling which of them measured each kept row.
     Results of another preset, budget, collection or number of seeds are not merged (a warning says so): ``(rows,
