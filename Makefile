@@ -105,6 +105,7 @@ benchmarks: $(BYTECODE)
 	cd benchmarks && ../$(PY) training.py --json results/training.json
 	cd benchmarks && ../$(PY) channels.py --json results/channels.json
 	cd benchmarks && ../$(PY) pointnet.py --preset quick --threads 2 --json results/pointnet.json
+	cd benchmarks && ../$(PY) point_steps.py --json results/point_steps.json
 
 # after make reproduce PRESET=default (its runs are read from build/reproduce-default)
 benchmarks-results: $(BYTECODE)

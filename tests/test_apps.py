@@ -397,6 +397,46 @@ def test_benchmarks_rows(humans):
     assert {"d_R", "d_V", "d_E", "d_R_median", "kind", "scheme"} <= set(row)
 
 
+def test_pointnet2_encodes_as_its_written_out_set_abstraction():
+    """PointNet2Autoencoder.encode groups each point's first-layer term once (W_f f_j) and takes a max: the codes and
+    every weight gradient equal the set abstraction written out, offsets and features concatenated per group member,
+    the whole MLP, then amax."""
+    from opnet.model import PointNet2Autoencoder, farthest_points
+
+    n = 300
+    base = np.random.default_rng(0).normal(size=(n, 3))
+    torch.manual_seed(0)
+    net = PointNet2Autoencoder(n, 200, latent=64, hidden=16).choose_points(base)
+    x = torch.as_tensor(base, dtype=torch.float32) + 0.05 * torch.randn(4, n, 3, generator=torch.Generator())
+
+    def written_out(vertices):
+        xyz, features = vertices[:, net.point_index], None
+        for (centres, group, _), radius, level in zip(net.LEVELS, net.radius, net.levels):
+            centre = torch.stack([p[i] for p, i in zip(xyz, farthest_points(xyz, centres))])
+            members = []
+            for s in range(len(xyz)):  # each shape, each centre: its `group` nearest points within the radius
+                d = torch.linalg.norm(xyz[s][None] - centre[s][:, None], dim=-1)
+                near, idx = d.sort(dim=1)
+                idx = torch.where(near[:, :group] <= radius, idx[:, :group], idx[:, :1])
+                one = xyz[s][idx] - centre[s][:, None]
+                members.append(one if features is None else torch.cat([one, features[s][idx]], dim=-1))
+            xyz, features = centre, level(torch.stack(members)).amax(dim=2)
+        return net.global_mlp(torch.cat([xyz, features], dim=-1)).amax(dim=1)
+
+    def codes_and_gradients(encode):
+        net.zero_grad()
+        z = encode(x)
+        (z * torch.linspace(-1, 1, z.shape[1])).sum().backward()
+        return z.detach(), [p.grad.clone() for p in net.parameters() if p.grad is not None]
+
+    z, grads = codes_and_gradients(net.encode)
+    z_ref, grads_ref = codes_and_gradients(written_out)
+    assert len(grads) == len(grads_ref) == 2 * (2 * 3 + 3)  # the two levels' and the global MLP's layers
+    torch.testing.assert_close(z, z_ref, rtol=1e-5, atol=1e-6)
+    for g, g_ref in zip(grads, grads_ref):
+        torch.testing.assert_close(g, g_ref, rtol=1e-4, atol=1e-4 * float(g_ref.abs().max()))
+
+
 def test_the_other_point_set_autoencoders_train_and_read_their_points(coll, tmp_path):
     """The paper's other PointNet (with its input transform, which starts as the identity) and the PointNet++
     autoencoder (Fig. 17) train like the PointNet AE, and are loaded back by their checkpoints' architecture."""

@@ -14,7 +14,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCHMARKS = ROOT / "benchmarks"
-NEEDS = {"torch_ops": "torch", "pointnet": "torch", "training": "torch"}
+NEEDS = {"torch_ops": "torch", "pointnet": "torch", "point_steps": "torch", "training": "torch"}
 
 
 def script(name: str):

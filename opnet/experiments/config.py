@@ -44,7 +44,7 @@ class ReproduceConfig:
     points: bool = option(
         False,
         "also train the other point-set autoencoders (PointNet with its spatial transformer, PointNet++: "
-        "plan.POINT_VARIANTS), with Table 1, analogy and interpolation rows; a PointNet++ training costs about three "
+        "plan.POINT_VARIANTS), with Table 1, analogy and interpolation rows; a PointNet++ training costs about four "
         "times the PointNet AE's",
     )
     maps: bool | None = option(

@@ -307,8 +307,8 @@ TABLE1_ROWS = {
 #: The other point-set autoencoders beside the PointNet AE of the paper's comparisons (section 7 and Fig. 17): key →
 #: (name, architecture). The paper trained PointNet with and without its spatial transformer and kept the one without,
 #: which did better; the appendix adds a PointNet++ autoencoder with the same decoder. They are the plan's part
-#: ``points`` (``reproduce --points``): on the CPU a training step of PointNet++ costs about three times the PointNet
-#: AE's, and of the transformer's PointNet about 1.7 times (0.90, 0.48 and 0.28 s for a batch of 32 ``default``
+#: ``points`` (``reproduce --points``): on the CPU a training step of PointNet++ costs about four times the PointNet
+#: AE's, and of the transformer's PointNet about twice (``benchmarks/point_steps.py``: a batch of 32 ``default``
 #: humans on one thread).
 POINT_VARIANTS = {
     "pointnet-stn": ("PointNet AE (transformer)", "pointnet_stn"),
