@@ -58,9 +58,10 @@ from .experiments.plan import (
     select,
     spec,
 )
-from .experiments.provenance import current, inputs_digest, record, run_checkpoints, stamp
+from .experiments.provenance import inputs_digest, measured_checkpoints, record, run_checkpoints, stamp, superseded
 from .experiments.report import ablation_table, merge_results, read_results, results_markdown, write_results
 from .experiments.runner import Workspace, run_entries
+from .experiments.shipped import shipped_figure, shipped_figures, shipped_results
 from .experiments.spec import RunSpec
 from .experiments.steps import (
     analogy_kinds,
@@ -157,9 +158,18 @@ def _reproduce(config: ReproduceConfig, out: Path) -> list[dict]:
     (out / "runs").mkdir(parents=True, exist_ok=True)
     device, t_start = resolve_device(config.device), time.perf_counter()
     earlier = read_results(out) if (out / "results.json").is_file() else None  # kept where not measured again
+    if earlier is None and config.from_shipped:  # the shipped rows and figures stand until measured again
+        earlier = shipped_results(config.preset, config.collection)
+        if config.figures:  # those of the parts this call leaves out are then shipped again with its own
+            (out / "figures").mkdir(exist_ok=True)
+            for name in shipped_figures(config.preset, config.collection):
+                if not (out / "figures" / f"{name}.png").is_file():
+                    shutil.copyfile(
+                        shipped_figure(name, config.preset, config.collection), out / "figures" / f"{name}.png"
+                    )
     if earlier is not None:  # a row of a training that is no longer its run's current one is measured again
-        checkpoints = run_checkpoints(out / "runs")
-        fresh = [r for r in earlier[0] if current(r, checkpoints)]
+        checkpoints = run_checkpoints(out / "runs")  # a run not here leaves its rows standing (superseded)
+        fresh = [r for r in earlier[0] if not superseded(r, checkpoints)]
         if len(fresh) < len(earlier[0]):
             warnings.warn(
                 f"{out / 'results.json'}: {len(earlier[0]) - len(fresh)} of its {len(earlier[0])} rows measured "
@@ -176,7 +186,9 @@ def _reproduce(config: ReproduceConfig, out: Path) -> list[dict]:
     before = earlier[0] if earlier is not None else []
 
     def save(rows):  # results.json/md: this call's rows, and an earlier call's that it did not measure again
-        merged, merged_context = merge_results(earlier, rows, context)
+        mine = measured_checkpoints(rows)  # a run this call trained again, to another checkpoint: its old rows go
+        kept = None if earlier is None else ([r for r in earlier[0] if not superseded(r, mine)], earlier[1])
+        merged, merged_context = merge_results(kept, rows, context)
         return write_results(out, merged, merged_context, time.perf_counter() - t_start)  # the rows as written
 
     bar = tqdm(total=len(plan), desc="reproduce", unit="step", disable=progress is False)

@@ -457,13 +457,71 @@ def test_reproduce_records_provenance_keeps_current_rows_and_measures_stale_ones
     assert {(r["entry"], r["split"]): r["d_R"] for r in third} == by  # the same checkpoint measures the same
 
 
+def test_a_row_is_superseded_by_another_checkpoint_of_its_run_not_by_its_runs_absence():
+    from opnet.experiments import provenance
+
+    row = dict(provenance=dict(runs=["a", "b"], checkpoints=["1" * 64, "2" * 64]))
+    assert not provenance.superseded(row, {})  # its trainings are elsewhere: it stands
+    assert not provenance.superseded(row, {"a": "1" * 64, "c": "3" * 64})
+    assert provenance.superseded(row, {"b": "0" * 64})  # another training of one of its runs
+    assert provenance.superseded(dict(d_R=1.0), {})  # no provenance: it cannot say
+    assert not provenance.current(row, {"a": "1" * 64})  # current: every run here, with its checkpoint
+    other = dict(provenance=dict(runs=["c"], checkpoints=["3" * 64]))
+    assert provenance.measured_checkpoints([row, other, dict(d_R=1.0)]) == {"a": "1" * 64, "b": "2" * 64, "c": "3" * 64}
+    with pytest.raises(ValueError, match="no shipped reproduction of the humans at preset 'quick'"):
+        config.ReproduceConfig(preset="quick", from_shipped=True)
+
+
+@pytest.mark.slow
+def test_rows_whose_trainings_are_elsewhere_stand_until_a_call_trains_their_runs_to_another_checkpoint(
+    capsules, tmp_path, monkeypatch
+):
+    """A call that starts from a results file whose runs this machine lacks (--from-shipped) keeps the rows of the
+    parts it leaves out; a kept row is dropped when it records another checkpoint of a run than the folder holds (at
+    the start) or than the call trained (when it writes); the shipped figures of the parts left out are carried."""
+    from opnet.experiments import provenance
+
+    budget = dataclasses.replace(BUDGET, ablation_epochs=BUDGET.epochs)  # the ablation's depth 1 shares Table 1's
+    monkeypatch.setitem(plan.BUDGETS, "quick", budget)
+    options = dict(collection="capsules", refine=False, device="cpu", progress=False)
+    first = reproduce.reproduce("quick", tmp_path / "a", ablation_grid="cross", figures=False, **options)
+    nets = {r["entry"]: r["provenance"]["runs"] for r in first if r["table"] == "table1" and r.get("run")}
+    shipped, context = reproduce.read_results(tmp_path / "a")
+    abl = [r for r in shipped if r["table"] == "ablation"]
+    here_other = next(r for r in abl if r["provenance"]["runs"] == nets["int+ext"])  # its run here, another training
+    later_other = next(r for r in abl if r["provenance"]["runs"] == nets["ext"])  # its run trained again, differently
+    for r in (here_other, later_other):
+        r["provenance"]["checkpoints"] = ["0" * 64]
+    shutil.copytree(tmp_path / "a" / "runs", tmp_path / "b" / "runs")
+    shutil.rmtree(tmp_path / "b" / "runs" / nets["ext"][0])  # not on this machine: its rows stand until trained
+    figure = tmp_path / "ablation.png"
+    figure.write_bytes(b"a shipped figure")
+    monkeypatch.setattr(config, "shipped_presets", lambda collection: ["quick"])
+    monkeypatch.setattr(reproduce, "shipped_results", lambda preset, collection: (shipped, context))
+    monkeypatch.setattr(reproduce, "shipped_figures", lambda preset, collection: ["ablation"])
+    monkeypatch.setattr(reproduce, "shipped_figure", lambda name, preset, collection: figure)
+    with pytest.warns(UserWarning, match="1 of its .* rows measured trainings that are not their runs' current"):
+        rows = reproduce.reproduce("quick", tmp_path / "b", ablation=False, from_shipped=True, **options)
+    merged = reproduce.read_results(tmp_path / "b")[0]
+    assert merged == json.loads(json.dumps(rows))
+    kept = [r for r in merged if r["table"] == "ablation"]
+    assert len(kept) == len(abl) - 2 and here_other not in kept and later_other not in kept
+    assert all(r in shipped for r in kept)  # as the file had them
+    assert not any(provenance.superseded(r, provenance.run_checkpoints(tmp_path / "b" / "runs")) for r in merged)
+    assert {r["entry"] for r in merged if r["table"] == "table1"} == {
+        r["entry"] for r in first if r["table"] == "table1"
+    }
+    assert (tmp_path / "b" / "figures" / "ablation.png").read_bytes() == b"a shipped figure"
+    assert (tmp_path / "b" / "figures" / "training_curves.png").stat().st_size > 1000  # this call's own
+
+
 @pytest.mark.slow
 def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules, tmp_path, monkeypatch):
     """--jobs 2 trains every network in two other processes, and the plan evaluates (and writes) each entry once its
     own trainings are finished, while later ones still train; the rows are those of one process, and the ablation's
     A+E+C at depth 1 is Table 1's Int+Ext training, not a second one."""
     torch = pytest.importorskip("torch")
-    from opnet.experiments import runner
+    from opnet.experiments import provenance, runner
 
     monkeypatch.setitem(plan.BUDGETS, "quick", dataclasses.replace(BUDGET, ablation_epochs=BUDGET.epochs))
     options = dict(collection="capsules", figures=False, refine=False, device="cpu", progress=False)
@@ -507,8 +565,9 @@ def test_jobs_train_the_plan_side_by_side_into_the_rows_of_one_process(capsules,
     stale = tmp_path / "two" / ".joblib" / "joblib_memmapping_folder_1_killed"  # what a SIGKILLed call leaves
     stale.mkdir(parents=True)
     (stale / "operators.pkl").write_bytes(b"x" * 1000)
-    with pytest.warns(UserWarning, match="current ones"):  # the deleted training's rows
-        again = reproduce.reproduce("quick", tmp_path / "two", jobs=2, **options)
+    again = reproduce.reproduce("quick", tmp_path / "two", jobs=2, **options)  # its rows stood until trained again
+    checkpoints = provenance.run_checkpoints(tmp_path / "two" / "runs")
+    assert all(provenance.current(r, checkpoints) for r in again)  # each row of the training the folder now holds
     assert torch.get_num_threads() == threads
     assert (tmp_path / "two" / ".joblib").is_dir() and not stale.exists()  # joblib's maps on disk, old ones deleted
     assert sorted(map(key, again)) == sorted(map(key, two))

@@ -10,6 +10,7 @@ from ..data.profiles import PROFILES, profile, reproducible
 from ..inner_products import get_inner_product, split_channels
 from ..options import option, positive_int
 from .plan import ABLATION_GRIDS, BUDGETS, PARTS, PRESETS, TRAINING_BUDGETS, Budget
+from .shipped import shipped_presets
 
 __all__ = ["ReproduceConfig", "EvaluateConfig"]
 
@@ -46,6 +47,13 @@ class ReproduceConfig:
         "also train the other point-set autoencoders (PointNet with its spatial transformer, PointNet++: "
         "plan.POINT_VARIANTS), with Table 1, analogy and interpolation rows; a PointNet++ training costs about four "
         "times the PointNet AE's",
+    )
+    from_shipped: bool = option(
+        False,
+        "when the folder holds no results.json yet, start from the shipped results of this preset and collection: "
+        "their rows stand (their trainings are not on this machine) until this call measures them again, so that "
+        "--points, say, adds its rows without the other parts being trained again; a run this call trains again "
+        "replaces its rows, or drops them where its checkpoint differs",
     )
     maps: bool | None = option(
         None,
@@ -119,6 +127,11 @@ class ReproduceConfig:
                     f"the {name} rows of the {self.collection} are not in its profile ({why}): pass {name}=False "
                     f"(the command line's --no-{name})."
                 )
+        if self.from_shipped and self.preset not in shipped_presets(self.collection):
+            raise ValueError(
+                f"from_shipped: no shipped reproduction of the {self.collection} at preset {self.preset!r} (shipped: "
+                f"{shipped_presets(self.collection) or 'none'}); drop --from-shipped or pick a shipped preset."
+            )
         if isinstance(self.ablation_channels, str):
             raise TypeError("ablation_channels must be a sequence of channel sets, e.g. ('area,mymodule:MyIP',).")
         sets = tuple(self.ablation_channels)

@@ -4,8 +4,11 @@ code (commit), date, machine and preset, and a digest of everything its numbers 
 Every row that :func:`opnet.experiments.runner.run_entries` and ``reproduce``'s steps write carries a
 ``provenance`` dict (:func:`record`). ``reproduce`` uses it twice: a row whose ``inputs`` digest equals what it
 would measure now is kept instead of evaluated again (a stopped reproduction resumes without repeating its
-evaluations), and a row kept from an earlier call whose recorded checkpoints are no longer its runs' current ones
-is dropped (:func:`current`), so that one results file never mixes trainings under one run.
+evaluations), and a row kept from an earlier call that records another checkpoint of a run than the one the folder
+holds, or than this call measured, is dropped (:func:`superseded`), so that one results file never mixes trainings
+under one run. A row whose runs are not in the folder at all (a results file carried to another machine, the
+shipped one among them) is kept: its provenance names the trainings it measured, and a call that trains them again
+replaces it, or drops it if the new checkpoint differs.
 """
 
 from __future__ import annotations
@@ -24,6 +27,8 @@ __all__ = [
     "record",
     "inputs_digest",
     "current",
+    "superseded",
+    "measured_checkpoints",
     "run_checkpoints",
 ]
 
@@ -144,3 +149,29 @@ def current(row: dict, checkpoints: dict) -> bool:
     if not isinstance(prov, dict):
         return False
     return all(checkpoints.get(run) == sha for run, sha in zip(prov["runs"], prov["checkpoints"], strict=True))
+
+
+def superseded(row: dict, checkpoints: dict) -> bool:
+    """Whether ``row`` measured a training that is no longer its run's: one of the runs it records is in
+    ``checkpoints`` (``{run id: SHA-256}``: :func:`run_checkpoints` of a folder, or the runs a call measured) with
+    another SHA-256 than the row recorded. A run absent from ``checkpoints`` does not supersede it (its folder is not
+    on this machine; the row stands as measured). A row without a ``provenance`` (written before rows recorded their
+    trainings) cannot say, so it is superseded.
+    """
+    prov = row.get("provenance")
+    if not isinstance(prov, dict):
+        return True
+    recorded = zip(prov["runs"], prov["checkpoints"], strict=True)
+    return any(run in checkpoints and checkpoints[run] != sha for run, sha in recorded)
+
+
+def measured_checkpoints(rows) -> dict:
+    """``{run id: SHA-256}`` of every training the ``rows`` record in their ``provenance`` (a call's own rows: the
+    checkpoints it measured, which supersede an earlier row's other checkpoint of the same run, :func:`superseded`).
+    """
+    return {
+        run: sha
+        for r in rows
+        if isinstance(r.get("provenance"), dict)
+        for run, sha in zip(r["provenance"]["runs"], r["provenance"]["checkpoints"], strict=True)
+    }
