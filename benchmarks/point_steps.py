@@ -34,14 +34,15 @@ from opnet.train.loop import adam
 
 class ConcatenatedPointNet2(PointNet2Autoencoder):
     """PointNet++ as first written: each level's whole MLP on every group member's concatenated ``[offset,
-    feature]``, then ``amax``. The same function and weights as :class:`~opnet.model.PointNet2Autoencoder`
-    (``tests/test_apps.py`` checks the codes and gradients against a loop over the groups); timed beside it.
+    feature]``, then ``amax``; timed beside :class:`~opnet.model.PointNet2Autoencoder`, whose codes and gradients
+    ``tests/test_apps.py`` checks against the same abstraction written as a loop over the groups.
     """
 
     def encode(self, vertices):
         xyz, features = vertices[:, self.point_index], None
         b = torch.arange(len(xyz))[:, None, None]
         for (centres, group, _), radius, level in zip(self.LEVELS, self.radius, self.levels):
+            centres, group = min(centres, xyz.shape[1]), min(group, xyz.shape[1])
             centre = torch.gather(xyz, 1, farthest_points(xyz, centres)[..., None].expand(-1, -1, 3))
             near, idx = torch.cdist(centre, xyz).topk(group, dim=-1, largest=False)
             idx = torch.where(near <= radius, idx, idx[..., :1])

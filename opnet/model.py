@@ -368,9 +368,10 @@ class PointNet2Autoencoder(PointNetAutoencoder):
         """Vertices ``(B, n, 3)`` → codes ``(B, latent)``. Each level's MLP starts with a linear layer of the group
         member's ``[offset, feature]``, ``W [x_j − c; f_j] = W_x (x_j − c) + W_f f_j``: the ``W_f f_j`` term is
         computed once per point and then grouped, not once per member (a point belongs to several groups), and the
-        max over a group is ``max`` (its gradient to one of tied members; ``amax`` splits it among them, which on
-        the same inputs gives the same weight gradients): a training step is about a quarter faster than with the
-        whole MLP on the concatenated groups and ``amax`` (``benchmarks/point_steps.py``).
+        max over a group is ``max``, whose gradient goes to one of tied members where ``amax`` splits it among them:
+        the ties are a group's padding (the nearest point repeated: the same inputs, so the same weight gradients)
+        or zeros after the ReLU (no gradient either way). The same function and weights as the whole MLP on the
+        concatenated groups with ``amax``, in a shorter training step (``benchmarks/point_steps.py`` times both).
         """
         vertices = as_input("vertices", vertices, self, (None, self.n_vertices, 3), f"(B, {self.n_vertices}, 3)")
         xyz, features = vertices[:, self.point_index], None

@@ -59,7 +59,15 @@ from .experiments.plan import (
     spec,
 )
 from .experiments.provenance import inputs_digest, measured_checkpoints, record, run_checkpoints, stamp, superseded
-from .experiments.report import ablation_table, merge_results, read_results, results_markdown, write_results
+from .experiments.report import (
+    ablation_table,
+    merge_blockers,
+    merge_results,
+    read_results,
+    results_markdown,
+    row_identity,
+    write_results,
+)
 from .experiments.runner import Workspace, run_entries
 from .experiments.shipped import shipped_figure, shipped_figures, shipped_results
 from .experiments.spec import RunSpec
@@ -157,37 +165,22 @@ def _reproduce(config: ReproduceConfig, out: Path) -> list[dict]:
     budget, profile, progress = config.training, config.profile, config.progress
     (out / "runs").mkdir(parents=True, exist_ok=True)
     device, t_start = resolve_device(config.device), time.perf_counter()
-    earlier = read_results(out) if (out / "results.json").is_file() else None  # kept where not measured again
-    if earlier is None and config.from_shipped:  # the shipped rows and figures stand until measured again
-        earlier = shipped_results(config.preset, config.collection)
-        if config.figures:  # those of the parts this call leaves out are then shipped again with its own
-            (out / "figures").mkdir(exist_ok=True)
-            for name in shipped_figures(config.preset, config.collection):
-                if not (out / "figures" / f"{name}.png").is_file():
-                    shutil.copyfile(
-                        shipped_figure(name, config.preset, config.collection), out / "figures" / f"{name}.png"
-                    )
-    if earlier is not None:  # a row of a training that is no longer its run's current one is measured again
-        checkpoints = run_checkpoints(out / "runs")  # a run not here leaves its rows standing (superseded)
-        fresh = [r for r in earlier[0] if not superseded(r, checkpoints)]
-        if len(fresh) < len(earlier[0]):
-            warnings.warn(
-                f"{out / 'results.json'}: {len(earlier[0]) - len(fresh)} of its {len(earlier[0])} rows measured "
-                "trainings that are not their runs' current ones (or record none); they are dropped and measured "
-                "again where this call's plan has them.",
-                stacklevel=2,
-            )
-        earlier = (fresh, earlier[1])
     plan = plan_for(config)
     coll, new = _collection(config, plan)
     context = _context(config, coll, device, plan)
+    earlier, source = _earlier(config, out, context)  # kept where not measured again
 
     row_stamp = {k: context[k] for k in ("commit", "date", "machine", "preset")}  # each row's provenance
     before = earlier[0] if earlier is not None else []
+    dropped = {}  # row identity → table, of the earlier rows this call's trainings superseded
 
     def save(rows):  # results.json/md: this call's rows, and an earlier call's that it did not measure again
-        mine = measured_checkpoints(rows)  # a run this call trained again, to another checkpoint: its old rows go
-        kept = None if earlier is None else ([r for r in earlier[0] if not superseded(r, mine)], earlier[1])
+        kept = None
+        if earlier is not None:  # a run this call trained again (or under another id), to another checkpoint
+            here, mine = run_checkpoints(out / "runs", finished=True), measured_checkpoints(rows)
+            gone = [superseded(r, here) or superseded(r, mine, by_name=True) for r in earlier[0]]
+            dropped.update({row_identity(r): r.get("table") for r, g in zip(earlier[0], gone) if g})
+            kept = ([r for r, g in zip(earlier[0], gone) if not g], earlier[1])
         merged, merged_context = merge_results(kept, rows, context)
         return write_results(out, merged, merged_context, time.perf_counter() - t_start)  # the rows as written
 
@@ -207,7 +200,80 @@ def _reproduce(config: ReproduceConfig, out: Path) -> list[dict]:
         if trained is not None:
             trained.close()
     bar.close()
+    _lost(rows, dropped, source, {s.key for s in plan.steps}, figures)
     return rows
+
+
+def _earlier(config: ReproduceConfig, out: Path, context: dict):
+    """The rows of an earlier call that this call keeps where it does not measure them again, and where they come
+    from: ``out/results.json``, or, with ``config.from_shipped`` when there is none, the shipped results (refused when
+    their :func:`~opnet.experiments.report.merge_blockers` are not ``[]``; their figures are copied into
+    ``out/figures``). Rows that record another checkpoint of a finished run in ``out/runs`` are dropped, with a
+    warning. ``((rows, context), source)``, or ``(None, None)``.
+    """
+    if (out / "results.json").is_file():
+        earlier, source = read_results(out), str(out / "results.json")
+    elif config.from_shipped:
+        earlier, source = shipped_results(config.preset, config.collection), f"the shipped {config.preset} results"
+        blockers = merge_blockers(earlier[1], context)
+        if blockers:
+            raise ValueError(
+                f"--from-shipped: {source} were measured with another {', '.join(blockers)} than this call's, so "
+                "they cannot stand beside its rows; run with the shipped settings (the preset's own seeds and "
+                "budget), or without --from-shipped."
+            )
+        if config.figures:  # those of the parts this call leaves out are then shipped again with its own
+            (out / "figures").mkdir(exist_ok=True)
+            for name in shipped_figures(config.preset, config.collection):
+                if not (out / "figures" / f"{name}.png").is_file():
+                    shutil.copyfile(
+                        shipped_figure(name, config.preset, config.collection), out / "figures" / f"{name}.png"
+                    )
+    else:
+        return None, None
+    checkpoints = run_checkpoints(out / "runs", finished=True)  # a run not here leaves its rows standing
+    fresh = [r for r in earlier[0] if not superseded(r, checkpoints)]
+    if len(fresh) < len(earlier[0]):
+        warnings.warn(
+            f"{source}: {len(earlier[0]) - len(fresh)} of its {len(earlier[0])} rows measured trainings that are not "
+            "their runs' current ones (or record none); they are dropped and measured again where this call's plan "
+            "has them.",
+            stacklevel=3,
+        )
+    return (fresh, earlier[1]), source
+
+
+#: The figures a step of the plan draws from its networks, by the table of its rows (file-name patterns).
+_STEP_FIGURES = {
+    "discretisation": ("discretisation", ("discretisation.png",)),
+    "analogy": ("applications", ("analogy_*.png",)),
+    "interpolation": ("applications", ("interpolation_*.png",)),
+}
+
+
+def _lost(rows: list[dict], dropped: dict, source, steps: set, figures) -> None:
+    """Warn of the rows kept from ``source`` that this call's trainings superseded (``dropped``: identity → table)
+    and did not measure again (not in the final ``rows``), naming their tables, and delete the figures a step left out
+    of this call (not in ``steps``) drew of them: a call with those parts measures and draws them again.
+    """
+    final = {row_identity(r) for r in rows}
+    lost = sorted({str(table) for identity, table in dropped.items() if identity not in final})
+    if not lost:
+        return
+    n = sum(identity not in final for identity in dropped)
+    stale = [table for table in lost if table in _STEP_FIGURES and _STEP_FIGURES[table][0] not in steps]
+    if figures is not None:
+        for table in stale:
+            for pattern in _STEP_FIGURES[table][1]:
+                for path in figures.glob(pattern):
+                    path.unlink()
+    warnings.warn(
+        f"{n} rows kept from {source} ({', '.join(lost)}) measured trainings that this call trained again to other "
+        "checkpoints, and this call does not measure them: they are dropped"
+        + (f", with the figures of their {', '.join(stale)} rows" if stale and figures is not None else "")
+        + "; a call with their parts measures them again.",
+        stacklevel=3,
+    )
 
 
 def _run_plan(config, steps, entries, ws: Workspace, save, figures, kept: dict, trained) -> list[dict]:
@@ -435,12 +501,15 @@ def _figures(figures: Path, ws: Workspace, done: dict, refine: bool) -> None:
 
 
 def _row_figures(figures: Path, rows: list[dict], config: ReproduceConfig) -> None:
-    """The figures drawn from the rows: the ablation's heat map, the rows beside Table 1."""
+    """The figures drawn from the rows (those of this call and those it kept): the ablation's heat map, the rows
+    beside Table 1 (unseen bodies, other triangulations).
+    """
     from ._extras import require
 
-    parts = config.parts()
-    drawn = {"ablation": ablation_figure} if "ablation" in parts else {}
-    drawn |= {"generalisation": generalisation_figure} if {"maps", "bodies"} & set(parts) else {}
+    parts, tables = config.parts(), {r.get("table") for r in rows}  # the rows kept from earlier calls too
+    drawn = {"ablation": ablation_figure} if "ablation" in parts or "ablation" in tables else {}
+    beside = {"maps", "bodies"} & set(parts) or "discretisation" in tables or any(r.get("bodies") for r in rows)
+    drawn |= {"generalisation": generalisation_figure} if beside else {}
     plt = require("matplotlib.pyplot", "opnet.reproduce's figures") if drawn else None
     for name, draw in drawn.items():
         fig = draw(rows)

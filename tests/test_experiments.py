@@ -466,6 +466,10 @@ def test_a_row_is_superseded_by_another_checkpoint_of_its_run_not_by_its_runs_ab
     assert provenance.superseded(row, {"b": "0" * 64})  # another training of one of its runs
     assert provenance.superseded(dict(d_R=1.0), {})  # no provenance: it cannot say
     assert not provenance.current(row, {"a": "1" * 64})  # current: every run here, with its checkpoint
+    renamed = {"a": "1" * 64, "b-0123456789": "2" * 64}  # run "b" of the row was "b-<its digest>"
+    row_ids = dict(provenance=dict(runs=["a", "b-9876543210"], checkpoints=["1" * 64, "2" * 64]))
+    assert not provenance.superseded(row_ids, renamed)
+    assert provenance.superseded(row_ids, renamed, by_name=True)  # the same network under another id: other data
     other = dict(provenance=dict(runs=["c"], checkpoints=["3" * 64]))
     assert provenance.measured_checkpoints([row, other, dict(d_R=1.0)]) == {"a": "1" * 64, "b": "2" * 64, "c": "3" * 64}
     with pytest.raises(ValueError, match="no shipped reproduction of the humans at preset 'quick'"):
@@ -478,7 +482,9 @@ def test_rows_whose_trainings_are_elsewhere_stand_until_a_call_trains_their_runs
 ):
     """A call that starts from a results file whose runs this machine lacks (--from-shipped) keeps the rows of the
     parts it leaves out; a kept row is dropped when it records another checkpoint of a run than the folder holds (at
-    the start) or than the call trained (when it writes); the shipped figures of the parts left out are carried."""
+    the start, finished runs only) or than the call trained (when it writes: a warning names them at the end); the
+    shipped figures are carried, those drawn from rows drawn again from the rows kept; a shipped file of other
+    settings is refused."""
     from opnet.experiments import provenance
 
     budget = dataclasses.replace(BUDGET, ablation_epochs=BUDGET.epochs)  # the ablation's depth 1 shares Table 1's
@@ -490,28 +496,42 @@ def test_rows_whose_trainings_are_elsewhere_stand_until_a_call_trains_their_runs
     abl = [r for r in shipped if r["table"] == "ablation"]
     here_other = next(r for r in abl if r["provenance"]["runs"] == nets["int+ext"])  # its run here, another training
     later_other = next(r for r in abl if r["provenance"]["runs"] == nets["ext"])  # its run trained again, differently
-    for r in (here_other, later_other):
-        r["provenance"]["checkpoints"] = ["0" * 64]
+    for r in (here_other, later_other):  # as if measured on another training: other checkpoints, other inputs
+        r["provenance"] |= dict(checkpoints=["0" * 64], inputs="0" * 16)
     shutil.copytree(tmp_path / "a" / "runs", tmp_path / "b" / "runs")
     shutil.rmtree(tmp_path / "b" / "runs" / nets["ext"][0])  # not on this machine: its rows stand until trained
-    figure = tmp_path / "ablation.png"
-    figure.write_bytes(b"a shipped figure")
+    unfinished = tmp_path / "b" / "runs" / nets["int"][0] / "history.json"  # as if interrupted: best.pt not its result
+    unfinished.write_text(json.dumps(json.loads(unfinished.read_text())[:1]))
+    for r in shipped:  # so its rows record another checkpoint than the folder's best.pt: not dropped at the start
+        if r["provenance"]["runs"] == nets["int"]:
+            r["provenance"] |= dict(checkpoints=["0" * 64], inputs="0" * 16)
     monkeypatch.setattr(config, "shipped_presets", lambda collection: ["quick"])
     monkeypatch.setattr(reproduce, "shipped_results", lambda preset, collection: (shipped, context))
-    monkeypatch.setattr(reproduce, "shipped_figures", lambda preset, collection: ["ablation"])
-    monkeypatch.setattr(reproduce, "shipped_figure", lambda name, preset, collection: figure)
-    with pytest.warns(UserWarning, match="1 of its .* rows measured trainings that are not their runs' current"):
+    monkeypatch.setattr(reproduce, "shipped_figures", lambda preset, collection: ["ablation", "drawn_elsewhere"])
+    monkeypatch.setattr(reproduce, "shipped_figure", lambda name, preset, collection: tmp_path / f"{name}.png")
+    for name in ("ablation", "drawn_elsewhere"):
+        (tmp_path / f"{name}.png").write_bytes(b"a shipped figure")
+    with pytest.raises(ValueError, match="another seeds than this call's"):
+        reproduce.reproduce("quick", tmp_path / "refused", seeds=2, from_shipped=True, **options)
+    with pytest.warns(UserWarning) as caught:
         rows = reproduce.reproduce("quick", tmp_path / "b", ablation=False, from_shipped=True, **options)
+    said = [str(w.message) for w in caught]
+    assert any(m.startswith("the shipped quick results: 1 of its") for m in said)  # here_other, at the start
+    assert any(m.startswith("2 rows kept from the shipped quick results (ablation)") for m in said)  # Ext, A+C d1
     merged = reproduce.read_results(tmp_path / "b")[0]
     assert merged == json.loads(json.dumps(rows))
     kept = [r for r in merged if r["table"] == "ablation"]
-    assert len(kept) == len(abl) - 2 and here_other not in kept and later_other not in kept
+    int_d1 = next(r for r in abl if r["provenance"]["runs"] == nets["int"])  # A+C at depth 1: Table 1's Int
+    gone = {report.row_identity(r) for r in (here_other, later_other, int_d1)}
+    assert len(kept) == len(abl) - 3 and not gone & {report.row_identity(r) for r in kept}
     assert all(r in shipped for r in kept)  # as the file had them
-    assert not any(provenance.superseded(r, provenance.run_checkpoints(tmp_path / "b" / "runs")) for r in merged)
+    bad = [r for r in merged if provenance.superseded(r, provenance.run_checkpoints(tmp_path / "b" / "runs"))]
+    assert not bad, [(r["table"], r["entry"], r["provenance"]) for r in bad]
     assert {r["entry"] for r in merged if r["table"] == "table1"} == {
         r["entry"] for r in first if r["table"] == "table1"
     }
-    assert (tmp_path / "b" / "figures" / "ablation.png").read_bytes() == b"a shipped figure"
+    assert (tmp_path / "b" / "figures" / "drawn_elsewhere.png").read_bytes() == b"a shipped figure"
+    assert (tmp_path / "b" / "figures" / "ablation.png").stat().st_size > 1000  # drawn again, from the rows kept
     assert (tmp_path / "b" / "figures" / "training_curves.png").stat().st_size > 1000  # this call's own
 
 

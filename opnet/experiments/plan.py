@@ -308,8 +308,8 @@ TABLE1_ROWS = {
 #: (name, architecture). The paper trained PointNet with and without its spatial transformer and kept the one without,
 #: which did better; the appendix adds a PointNet++ autoencoder with the same decoder. They are the plan's part
 #: ``points`` (``reproduce --points``): on the CPU a training step of PointNet++ costs about four times the PointNet
-#: AE's, and of the transformer's PointNet about twice (``benchmarks/point_steps.py``: a batch of 32 ``default``
-#: humans on one thread).
+#: AE's, and of the transformer's PointNet about twice (``benchmarks/point_steps.py``: a batch of 32 shapes of the
+#: humans' size, 1229 vertices, on one thread).
 POINT_VARIANTS = {
     "pointnet-stn": ("PointNet AE (transformer)", "pointnet_stn"),
     "pointnet2": ("PointNet++ AE", "pointnet2"),

@@ -130,14 +130,37 @@ def record(runs, context: dict, inputs: str) -> dict:
     )
 
 
-def run_checkpoints(runs_root) -> dict:
-    """``{run id: SHA-256 of its best.pt}`` for every run folder under ``runs_root`` that has one."""
-    from ..train import checkpoint_sha256
-
+def run_checkpoints(runs_root, *, finished: bool = False) -> dict:
+    """``{run id: SHA-256 of its best.pt}`` for every run folder under ``runs_root`` that has one; ``finished``: only
+    the runs whose ``history.json`` holds the epochs their ``config.json`` asks for (an interrupted training's
+    ``best.pt`` is not its result yet). A file's digest is computed once per size and modification time.
+    """
     root = Path(runs_root)
     if not root.is_dir():
         return {}
-    return {p.parent.name: checkpoint_sha256(p) for p in sorted(root.glob("*/best.pt"))}
+    out = {}
+    for path in sorted(root.glob("*/best.pt")):
+        if finished and not _finished(path.parent):
+            continue
+        stat = path.stat()
+        out[path.parent.name] = _sha256(str(path), stat.st_size, stat.st_mtime_ns)
+    return out
+
+
+@functools.lru_cache(maxsize=4096)
+def _sha256(path: str, size: int, mtime_ns: int) -> str:
+    from ..train import checkpoint_sha256
+
+    return checkpoint_sha256(Path(path))
+
+
+def _finished(run_dir: Path) -> bool:
+    """Whether the run in ``run_dir`` has trained the epochs of its ``config.json`` (read without loading it)."""
+    try:
+        epochs = json.loads((run_dir / "config.json").read_text())["train"]["epochs"]
+        return len(json.loads((run_dir / "history.json").read_text())) >= epochs
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
 
 
 def current(row: dict, checkpoints: dict) -> bool:
@@ -151,18 +174,28 @@ def current(row: dict, checkpoints: dict) -> bool:
     return all(checkpoints.get(run) == sha for run, sha in zip(prov["runs"], prov["checkpoints"], strict=True))
 
 
-def superseded(row: dict, checkpoints: dict) -> bool:
+def superseded(row: dict, checkpoints: dict, *, by_name: bool = False) -> bool:
     """Whether ``row`` measured a training that is no longer its run's: one of the runs it records is in
     ``checkpoints`` (``{run id: SHA-256}``: :func:`run_checkpoints` of a folder, or the runs a call measured) with
-    another SHA-256 than the row recorded. A run absent from ``checkpoints`` does not supersede it (its folder is not
-    on this machine; the row stands as measured). A row without a ``provenance`` (written before rows recorded their
-    trainings) cannot say, so it is superseded.
+    another SHA-256 than the row recorded; with ``by_name``, also when ``checkpoints`` has a run of the same name
+    under another id (the name without the digest of its data and code: the same network trained on other data or
+    by other code, as a call that measured it says). A run absent from ``checkpoints`` does not supersede it (its
+    folder is not on this machine; the row stands as measured). A row without a ``provenance`` (written before rows
+    recorded their trainings) cannot say, so it is superseded.
     """
     prov = row.get("provenance")
     if not isinstance(prov, dict):
         return True
-    recorded = zip(prov["runs"], prov["checkpoints"], strict=True)
-    return any(run in checkpoints and checkpoints[run] != sha for run, sha in recorded)
+    names = {_run_name(run) for run in checkpoints} if by_name else set()
+    for run, sha in zip(prov["runs"], prov["checkpoints"], strict=True):
+        if checkpoints.get(run, sha) != sha or (run not in checkpoints and _run_name(run) in names):
+            return True
+    return False
+
+
+def _run_name(run_id: str) -> str:
+    """A run id without its digest (:meth:`opnet.experiments.spec.RunSpec.run_id`: ``<run name>-<digest>``)."""
+    return run_id.rpartition("-")[0]
 
 
 def measured_checkpoints(rows) -> dict:

@@ -34,6 +34,7 @@ __all__ = [
     "MAPPED_GROUPS",
     "write_results",
     "merge_results",
+    "merge_blockers",
     "row_identity",
     "results_markdown",
     "results_sections",
@@ -294,9 +295,7 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
     if not earlier or earlier[1] is None:
         return rows, context
     old_rows, old = earlier
-    same = ("preset", "budget", "splits")
-    seeds = old.get("seeds", 1) != context.get("seeds", 1)  # files of before seeds were recorded: one seed each
-    if any(old.get(key) != context.get(key) for key in same) or _shapes(old) != _shapes(context) or seeds:
+    if merge_blockers(old, context):
         import warnings
 
         warnings.warn(
@@ -322,6 +321,17 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
     summary = {key: old[key] for key in ("date", "machine", "wall_seconds") if key in old}
     summary["tables"] = sorted({str(r.get("table")) for r in kept})
     return merged, dict(context, earlier=[*old.get("earlier", []), summary])
+
+
+def merge_blockers(old: dict, context: dict) -> list[str]:
+    """What keeps the rows of a call with ``context`` apart from those of an earlier call with ``old`` (two results
+    files' contexts): the names of the settings that differ among ``preset``, ``budget``, ``splits``, ``shapes`` (the
+    collection, its channels aside) and ``seeds`` (a file of before seeds were recorded: one each); ``[]`` when their
+    rows merge (:func:`merge_results`).
+    """
+    differ = [key for key in ("preset", "budget", "splits") if old.get(key) != context.get(key)]
+    differ += ["shapes"] if _shapes(old) != _shapes(context) else []
+    return differ + (["seeds"] if old.get("seeds", 1) != context.get("seeds", 1) else [])
 
 
 def _shapes(context: dict) -> str:
