@@ -214,7 +214,9 @@ def _earlier(config: ReproduceConfig, out: Path, context: dict):
     if (out / "results.json").is_file():
         earlier, source = read_results(out), str(out / "results.json")
     elif config.from_shipped:
-        earlier, source = shipped_results(config.preset, config.collection), f"the shipped {config.preset} results"
+        rows, shipped = shipped_results(config.preset, config.collection)
+        source = f"the shipped {config.preset} results"
+        earlier = (rows, dict(shipped, carried_from=source))  # said of its rows' call in this folder's context
         blockers = merge_blockers(earlier[1], context)
         if blockers:
             raise ValueError(

@@ -530,6 +530,10 @@ def test_rows_whose_trainings_are_elsewhere_stand_until_a_call_trains_their_runs
     assert {r["entry"] for r in merged if r["table"] == "table1"} == {
         r["entry"] for r in first if r["table"] == "table1"
     }
+    assert (
+        "Rows kept from an earlier call carried here from the shipped quick results"
+        in (tmp_path / "b" / "results.md").read_text()
+    )
     assert (tmp_path / "b" / "figures" / "drawn_elsewhere.png").read_bytes() == b"a shipped figure"
     assert (tmp_path / "b" / "figures" / "ablation.png").stat().st_size > 1000  # drawn again, from the rows kept
     assert (tmp_path / "b" / "figures" / "training_curves.png").stat().st_size > 1000  # this call's own

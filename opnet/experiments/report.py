@@ -287,7 +287,8 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
     --points`` after the rest) stands beside its plan neighbours, not at the end, and a call that measures or keeps
     every row of a file that an older version wrote in the order measured puts it in order (until then, its rows not
     yet reached keep the file's order). ``context`` then lists under
-    ``"earlier"`` the earlier call (its date, machine, wall time and the tables of the rows kept) and the calls it
+    ``"earlier"`` the earlier call (its date, machine, wall time, the tables of the rows kept and, for rows carried
+    from another folder, its context's ``carried_from``: where they came from) and the calls it
     listed itself: a chain of calls is listed whole, without telling which of them measured each kept row.
     Results of another preset, budget, collection or number of seeds are not merged (a warning says so): ``(rows,
     context)`` are returned as they are.
@@ -318,7 +319,7 @@ def merge_results(earlier: tuple[list[dict], dict] | None, rows: list[dict], con
         before = i
     if not kept:
         return merged, context
-    summary = {key: old[key] for key in ("date", "machine", "wall_seconds") if key in old}
+    summary = {key: old[key] for key in ("date", "machine", "wall_seconds", "carried_from") if key in old}
     summary["tables"] = sorted({str(r.get("table")) for r in kept})
     return merged, dict(context, earlier=[*old.get("earlier", []), summary])
 
@@ -467,20 +468,21 @@ def _earlier_lines(earlier: list[dict]) -> list[str]:
     """
     groups: list[tuple[tuple, list]] = []
     for e in earlier:
-        key = (tuple(e["tables"]), e.get("date"), e.get("machine", "?"))
+        key = (tuple(e["tables"]), e.get("date"), e.get("machine", "?"), e.get("carried_from"))
         if groups and groups[-1][0] == key:
             groups[-1][1].append(e.get("wall_seconds"))
         else:
             groups.append((key, [e.get("wall_seconds")]))
     lines = []
-    for (tables, date, machine), walls in groups:
+    for (tables, date, machine, carried), walls in groups:
         known = [f"{w:.0f}" for w in walls if w is not None]
         wall = f", wall time{'s' if len(known) > 1 else ''} {', '.join(known)} s" if known else ""
         if known and len(known) < len(walls):
             wall += f" ({len(walls) - len(known)} not recorded)"
         calls = "an earlier call" if len(walls) == 1 else f"{len(walls)} earlier calls"
+        where = f"carried here from {carried} (their trainings elsewhere)" if carried else "in the same folder"
         lines.append(
-            f"Rows kept from {calls} in the same folder (finished runs reused): the tables {', '.join(tables)}, "
+            f"Rows kept from {calls} {where} (finished runs reused): the tables {', '.join(tables)}, "
             f"measured{' on ' + date if date else ''} on {machine}{wall}."
         )
     return lines
