@@ -58,7 +58,15 @@ from .experiments.plan import (
     select,
     spec,
 )
-from .experiments.provenance import inputs_digest, measured_checkpoints, record, run_checkpoints, stamp, superseded
+from .experiments.provenance import (
+    inputs_digest,
+    measured_checkpoints,
+    record,
+    run_checkpoints,
+    run_finished,
+    stamp,
+    superseded,
+)
 from .experiments.report import (
     ablation_table,
     merge_blockers,
@@ -259,10 +267,10 @@ def _lost(rows: list[dict], dropped: dict, source, steps: set, figures) -> None:
     of this call (not in ``steps``) drew of them: a call with those parts measures and draws them again.
     """
     final = {row_identity(r) for r in rows}
-    lost = sorted({str(table) for identity, table in dropped.items() if identity not in final})
-    if not lost:
+    gone = [table for identity, table in dropped.items() if identity not in final]
+    if not gone:
         return
-    n = sum(identity not in final for identity in dropped)
+    lost = sorted(set(map(str, gone)))
     stale = [table for table in lost if table in _STEP_FIGURES and _STEP_FIGURES[table][0] not in steps]
     if figures is not None:
         for table in stale:
@@ -270,8 +278,8 @@ def _lost(rows: list[dict], dropped: dict, source, steps: set, figures) -> None:
                 for path in figures.glob(pattern):
                     path.unlink()
     warnings.warn(
-        f"{n} rows kept from {source} ({', '.join(lost)}) measured trainings that this call trained again to other "
-        "checkpoints, and this call does not measure them: they are dropped"
+        f"{len(gone)} rows kept from {source} ({', '.join(lost)}) measured trainings that this call trained again to "
+        "other checkpoints, and this call does not measure them: they are dropped"
         + (f", with the figures of their {', '.join(stale)} rows" if stale and figures is not None else "")
         + "; a call with their parts measures them again.",
         stacklevel=3,
@@ -348,7 +356,7 @@ class _SideBySide:
                 declared.setdefault(digest, training)  # the first entry that declares it: its folder
         for digest, (key, draws, one) in declared.items():  # pending: dispatched, not yet seen finished
             coll = ws.data(key, draws)
-            if not _finished(one.run_dir(ws.runs_root, coll), one.epochs):
+            if not run_finished(one.run_dir(ws.runs_root, coll), one.epochs):
                 self.pending[digest] = (one, coll)
         threads = max(1, usable_cores() // config.jobs)  # a training's share, however many are left (its numbers keep)
         task = joblib.delayed(_train_one)
@@ -380,16 +388,6 @@ class _SideBySide:
             warnings.simplefilter("ignore")
             self._finishing.close()
         self.bar.close()
-
-
-def _finished(run_dir: Path, epochs: int) -> bool:
-    """Whether ``run_dir``'s ``history.json`` holds ``epochs`` epochs (looked up without loading the run)."""
-    import json
-
-    try:
-        return len(json.loads((run_dir / "history.json").read_text())) >= epochs
-    except (OSError, ValueError):
-        return False
 
 
 def _train_one(digest: str, spec, collection, runs_root: str, device: str, threads: int) -> str:

@@ -30,6 +30,7 @@ __all__ = [
     "superseded",
     "measured_checkpoints",
     "run_checkpoints",
+    "run_finished",
 ]
 
 
@@ -140,7 +141,7 @@ def run_checkpoints(runs_root, *, finished: bool = False) -> dict:
         return {}
     out = {}
     for path in sorted(root.glob("*/best.pt")):
-        if finished and not _finished(path.parent):
+        if finished and not run_finished(path.parent):
             continue
         stat = path.stat()
         out[path.parent.name] = _sha256(str(path), stat.st_size, stat.st_mtime_ns)
@@ -154,10 +155,14 @@ def _sha256(path: str, size: int, mtime_ns: int) -> str:
     return checkpoint_sha256(Path(path))
 
 
-def _finished(run_dir: Path) -> bool:
-    """Whether the run in ``run_dir`` has trained the epochs of its ``config.json`` (read without loading it)."""
+def run_finished(run_dir, epochs: int | None = None) -> bool:
+    """Whether the run in ``run_dir`` has trained ``epochs`` epochs (default: those of its ``config.json``), by its
+    ``history.json``, read without loading the run; ``False`` where either file is missing or unreadable.
+    """
+    run_dir = Path(run_dir)
     try:
-        epochs = json.loads((run_dir / "config.json").read_text())["train"]["epochs"]
+        if epochs is None:
+            epochs = json.loads((run_dir / "config.json").read_text())["train"]["epochs"]
         return len(json.loads((run_dir / "history.json").read_text())) >= epochs
     except (OSError, ValueError, KeyError, TypeError):
         return False

@@ -480,10 +480,10 @@ def _earlier_lines(earlier: list[dict]) -> list[str]:
         if known and len(known) < len(walls):
             wall += f" ({len(walls) - len(known)} not recorded)"
         calls = "an earlier call" if len(walls) == 1 else f"{len(walls)} earlier calls"
-        where = f"carried here from {carried}, their trainings elsewhere" if carried else "in the same folder"
+        here = "in the same folder (finished runs reused)"
+        where = f"carried here from {carried}, their trainings elsewhere" if carried else here
         lines.append(
-            f"Rows kept from {calls} {where}{'' if carried else ' (finished runs reused)'}: the tables "
-            f"{', '.join(tables)}, "
+            f"Rows kept from {calls} {where}: the tables {', '.join(tables)}, "
             f"measured{' on ' + date if date else ''} on {machine}{wall}."
         )
     return lines
